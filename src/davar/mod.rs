@@ -1,0 +1,1 @@
+//! Dynamic Allan variance: the streaming F-DAVAR engine, F value and window policies.

@@ -1,0 +1,213 @@
+//! The effect vocabulary (DESIGN §4, **contract** names): one file per physical effect.
+//!
+//! Each effect file holds its parameters, its Allan signature or time-domain form, its simulation
+//! and its explanation. The simulator, the fitter, the diagnosis, the messages and the docs all read
+//! [`REGISTRY`], so adding a physical effect is one new file and one line in that slice. Nothing
+//! outside this folder matches on a concrete effect type.
+
+use rand::RngCore;
+use serde::{Deserialize, Serialize};
+use std::fmt::Debug;
+
+/// The registry: every effect kind, in the order of `--help`, reports and suggestions.
+///
+/// Base noise terms first (IEEE 952: Q, N, B, K, R), then the effects beyond them.
+pub static REGISTRY: &[&dyn EffectKind] = &[];
+
+/// Looks a kind up by id (`white`) or alias (`N`).
+pub fn find(name: &str) -> Option<&'static dyn EffectKind> {
+    REGISTRY
+        .iter()
+        .copied()
+        .find(|k| k.id() == name || k.alias() == Some(name))
+}
+
+/// How an effect shows up, which decides how the fitter estimates it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Domain {
+    /// Stationary: has an Allan signature [`Effect::avar`] and is fitted on the Allan variance.
+    Spectral,
+    /// Non-stationary or driven by another signal: estimated in the time domain.
+    TimeDomain,
+}
+
+/// What evidence the diagnosis needs before it may suggest an effect (DESIGN §6).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Evidence {
+    /// The axis's own samples suffice.
+    None,
+    /// A `sensor_msgs/Temperature` topic.
+    Temperature,
+    /// The accelerometer axes of the same IMU.
+    Accel,
+    /// A DAVAR event (a time span where the noise changed).
+    Events,
+}
+
+/// The schema of one parameter: name, unit and bounds, shared by all effects of a kind.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParamSpec {
+    /// Contract name, e.g. `frequency_hz`.
+    pub name: &'static str,
+    /// SI unit for a gyro axis, e.g. `rad/s`; for an accel axis read `rad` as `m/s`.
+    pub unit: &'static str,
+    /// Inclusive bounds a value must lie in.
+    pub bounds: (f64, f64),
+    /// One line for `--help` and docs.
+    pub doc: &'static str,
+}
+
+/// One parameter value with its schema.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Param {
+    /// The schema.
+    pub spec: ParamSpec,
+    /// The value in SI units.
+    pub value: f64,
+}
+
+/// How an effect explains itself to a person.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Explanation {
+    /// One plain sentence of physics, with the numbers filled in.
+    pub sentence: String,
+    /// Log-log slope of σ²(τ) where the effect dominates (e.g. −1 for white), if it has one.
+    pub avar_slope: Option<f64>,
+    /// Where the signature comes from (IEEE 952 Annex C, NIST SP 1065, …).
+    pub reference: &'static str,
+}
+
+/// A parameter value that is NaN, out of bounds, or missing.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ParamError {
+    /// The value is NaN or infinite.
+    #[error("{effect}: parameter '{param}' must be a finite number, got {value}")]
+    NotFinite {
+        /// Effect id.
+        effect: &'static str,
+        /// Parameter name.
+        param: &'static str,
+        /// The value given.
+        value: f64,
+    },
+    /// The value lies outside the schema's bounds.
+    #[error("{effect}: parameter '{param}' = {value} is outside [{low}, {high}] {unit}")]
+    OutOfBounds {
+        /// Effect id.
+        effect: &'static str,
+        /// Parameter name.
+        param: &'static str,
+        /// The value given.
+        value: f64,
+        /// Lower bound.
+        low: f64,
+        /// Upper bound.
+        high: f64,
+        /// Unit of the bounds.
+        unit: &'static str,
+    },
+    /// Wrong number of values for the schema.
+    #[error("{effect}: expected {expected} parameter values, got {got}")]
+    Arity {
+        /// Effect id.
+        effect: &'static str,
+        /// Values the schema has.
+        expected: usize,
+        /// Values given.
+        got: usize,
+    },
+    /// A parameter relation is violated (e.g. a burst that ends before it starts).
+    #[error("{effect}: {reason}")]
+    Invalid {
+        /// Effect id.
+        effect: &'static str,
+        /// What is wrong, in words.
+        reason: String,
+    },
+}
+
+/// Checks `values` against `schema`: arity, finiteness and bounds, naming the failing parameter.
+pub fn check_params(
+    effect: &'static str,
+    schema: &[ParamSpec],
+    values: &[f64],
+) -> Result<(), ParamError> {
+    if schema.len() != values.len() {
+        return Err(ParamError::Arity {
+            effect,
+            expected: schema.len(),
+            got: values.len(),
+        });
+    }
+    for (spec, &value) in schema.iter().zip(values) {
+        if !value.is_finite() {
+            return Err(ParamError::NotFinite {
+                effect,
+                param: spec.name,
+                value,
+            });
+        }
+        let (low, high) = spec.bounds;
+        if value < low || value > high {
+            return Err(ParamError::OutOfBounds {
+                effect,
+                param: spec.name,
+                value,
+                low,
+                high,
+                unit: spec.unit,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// A kind of effect: its name, schema, and how to build one from values (the registry's entries).
+pub trait EffectKind: Sync {
+    /// Contract id, e.g. `white`.
+    fn id(&self) -> &'static str;
+    /// Short alias, e.g. `N`, if any.
+    fn alias(&self) -> Option<&'static str>;
+    /// Parameter schema, in the order `build` takes values.
+    fn schema(&self) -> &'static [ParamSpec];
+    /// Where the effect is estimated.
+    fn domain(&self) -> Domain;
+    /// What the diagnosis needs before suggesting it.
+    fn evidence(&self) -> Evidence;
+    /// Builds an effect, validating every value.
+    ///
+    /// # Errors
+    /// [`ParamError`] naming the parameter that is NaN, out of bounds or inconsistent.
+    fn build(&self, values: &[f64]) -> Result<Box<dyn Effect>, ParamError>;
+}
+
+/// What an effect needs from the rest of the recording to simulate itself.
+#[derive(Debug, Clone, Copy)]
+pub struct SimContext<'a> {
+    /// Sample period τ0, seconds.
+    pub dt: f64,
+    /// Standard deviation of the axis's white noise per sample (for effects that scale it).
+    pub white_sigma: f64,
+    /// Temperature at each sample, °C, when the recording has one.
+    pub temperature_c: Option<&'a [f64]>,
+    /// The three accel axes at each sample, m/s², when simulating a gyro axis.
+    pub accel: Option<[&'a [f64]; 3]>,
+}
+
+/// One physical effect with its parameter values.
+pub trait Effect: Debug + Send + Sync {
+    /// The kind this effect is one of.
+    fn kind(&self) -> &'static dyn EffectKind;
+    /// The parameter values, in schema order.
+    fn params(&self) -> Vec<Param>;
+    /// Allan variance contribution at τ seconds for rate data, for [`Domain::Spectral`] effects.
+    fn avar(&self, tau: f64) -> Option<f64>;
+    /// Applies the effect to `out`, one axis of rate samples: additive effects add, quantization
+    /// rounds. Deterministic effects ignore `rng`, so simulating on zeros gives their time-domain form.
+    fn simulate(&self, ctx: &SimContext<'_>, rng: &mut dyn RngCore, out: &mut [f64]);
+    /// A plain sentence of physics with the numbers filled in.
+    fn explain(&self) -> Explanation;
+}

@@ -1,0 +1,1 @@
+//! Rendering: text tables, JSON, CSV and figures. No maths here.

@@ -1,0 +1,256 @@
+//! Imu messages become per-axis rate samples; stamps are checked and irregularities counted.
+//!
+//! Irregularities are facts to report, never to hide (DESIGN §1): a gap, a duplicated stamp, time
+//! going backwards or a NaN/Inf value is classified by [`StampCheck`] / [`SampleCheck`] and counted in
+//! [`Irregularities`]; the analysis leaves out the Allan terms that would straddle it.
+//!
+//! No I/O and no ROS here: bag readers and the node convert their messages into [`ImuSample`].
+
+mod period;
+
+pub use period::{nominal_period, PeriodEstimator};
+
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+
+/// One of the six IMU axes (**contract** names: `gyro_x` … `accel_z`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Axis {
+    /// `angular_velocity.x`, rad/s.
+    GyroX,
+    /// `angular_velocity.y`, rad/s.
+    GyroY,
+    /// `angular_velocity.z`, rad/s.
+    GyroZ,
+    /// `linear_acceleration.x`, m/s².
+    AccelX,
+    /// `linear_acceleration.y`, m/s².
+    AccelY,
+    /// `linear_acceleration.z`, m/s².
+    AccelZ,
+}
+
+impl Axis {
+    /// All six axes, gyro first, in the order of reports and messages.
+    pub const ALL: [Axis; 6] = [
+        Axis::GyroX,
+        Axis::GyroY,
+        Axis::GyroZ,
+        Axis::AccelX,
+        Axis::AccelY,
+        Axis::AccelZ,
+    ];
+
+    /// The contract name, e.g. `gyro_x`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Axis::GyroX => "gyro_x",
+            Axis::GyroY => "gyro_y",
+            Axis::GyroZ => "gyro_z",
+            Axis::AccelX => "accel_x",
+            Axis::AccelY => "accel_y",
+            Axis::AccelZ => "accel_z",
+        }
+    }
+
+    /// Position in [`Axis::ALL`] and in [`ImuSample::values`].
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// True for the three gyro axes (rate in rad/s, phase in rad).
+    pub fn is_gyro(self) -> bool {
+        self.index() < 3
+    }
+
+    /// The SI unit of a rate sample on this axis.
+    pub fn rate_unit(self) -> &'static str {
+        if self.is_gyro() {
+            "rad/s"
+        } else {
+            "m/s^2"
+        }
+    }
+}
+
+impl fmt::Display for Axis {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// An axis name that is not one of the six.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown axis '{0}' (expected one of gyro_x, gyro_y, gyro_z, accel_x, accel_y, accel_z)")]
+pub struct UnknownAxis(pub String);
+
+impl FromStr for Axis {
+    type Err = UnknownAxis;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Axis::ALL
+            .into_iter()
+            .find(|a| a.name() == s)
+            .ok_or_else(|| UnknownAxis(s.to_string()))
+    }
+}
+
+/// One IMU measurement: the six rates at one sensor time.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ImuSample {
+    /// Sensor time (`header.stamp`, or the receive time when the stamp is zero), nanoseconds.
+    pub stamp_ns: i64,
+    /// `angular_velocity` x, y, z in rad/s.
+    pub gyro: [f64; 3],
+    /// `linear_acceleration` x, y, z in m/s².
+    pub accel: [f64; 3],
+}
+
+impl ImuSample {
+    /// The six rates in [`Axis::ALL`] order.
+    pub fn values(&self) -> [f64; 6] {
+        let [gx, gy, gz] = self.gyro;
+        let [ax, ay, az] = self.accel;
+        [gx, gy, gz, ax, ay, az]
+    }
+
+    /// The rate on one axis.
+    pub fn value(&self, axis: Axis) -> f64 {
+        self.values()[axis.index()]
+    }
+}
+
+/// One temperature reading (`sensor_msgs/Temperature`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TemperatureSample {
+    /// Sensor time, nanoseconds.
+    pub stamp_ns: i64,
+    /// Temperature in degrees Celsius (as the message carries it; differences are kelvin).
+    pub celsius: f64,
+}
+
+/// What a new stamp is, relative to the previous good one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StampClass {
+    /// The next sample, about one period after the previous one.
+    Next,
+    /// Later than 1.5 τ0 after the previous one: samples are missing in between.
+    Gap {
+        /// Whole periods missing (rounded), at least 1.
+        missing: u64,
+    },
+    /// The same stamp as the previous sample.
+    Duplicate,
+    /// Earlier than the previous sample.
+    Backwards,
+}
+
+/// Counts of the irregularities met so far on one stream (published as-is).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Irregularities {
+    /// Intervals longer than 1.5 τ0.
+    pub gaps: u64,
+    /// Samples with the same stamp as the previous one (dropped).
+    pub duplicates: u64,
+    /// Samples stamped earlier than the previous one (dropped).
+    pub backwards: u64,
+    /// Values that were NaN or infinite (that axis's sample dropped).
+    pub non_finite: u64,
+}
+
+/// Classifies each stamp against the previous accepted one.
+///
+/// Why a separate type: the bag reader, the offline pipeline and the node all need the same rule
+/// (DESIGN §1: a gap is an interval > 1.5 τ0), and the same input must give the same counts live
+/// and offline.
+#[derive(Debug, Clone)]
+pub struct StampCheck {
+    period_ns: f64,
+    last_ns: Option<i64>,
+    counts: Irregularities,
+}
+
+impl StampCheck {
+    /// A check for a stream with nominal period `period_s` seconds.
+    pub fn new(period_s: f64) -> Self {
+        StampCheck {
+            period_ns: period_s * 1e9,
+            last_ns: None,
+            counts: Irregularities::default(),
+        }
+    }
+
+    /// Classifies `stamp_ns`, counts it, and remembers it unless it was a duplicate or went backwards.
+    pub fn check(&mut self, stamp_ns: i64) -> StampClass {
+        let Some(last) = self.last_ns else {
+            self.last_ns = Some(stamp_ns);
+            return StampClass::Next;
+        };
+        let class = match stamp_ns.cmp(&last) {
+            std::cmp::Ordering::Equal => StampClass::Duplicate,
+            std::cmp::Ordering::Less => StampClass::Backwards,
+            std::cmp::Ordering::Greater => {
+                let dt = (stamp_ns - last) as f64;
+                if dt > 1.5 * self.period_ns {
+                    let missing = ((dt / self.period_ns).round() as u64).saturating_sub(1).max(1);
+                    StampClass::Gap { missing }
+                } else {
+                    StampClass::Next
+                }
+            }
+        };
+        match class {
+            StampClass::Duplicate => self.counts.duplicates += 1,
+            StampClass::Backwards => self.counts.backwards += 1,
+            StampClass::Gap { .. } => {
+                self.counts.gaps += 1;
+                self.last_ns = Some(stamp_ns);
+            }
+            StampClass::Next => self.last_ns = Some(stamp_ns),
+        }
+        class
+    }
+
+    /// Counts a non-finite value seen on some axis.
+    pub fn count_non_finite(&mut self) {
+        self.counts.non_finite += 1;
+    }
+
+    /// The counts so far.
+    pub fn counts(&self) -> Irregularities {
+        self.counts
+    }
+
+    /// The nominal period this check uses, seconds.
+    pub fn period_s(&self) -> f64 {
+        self.period_ns * 1e-9
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn axis_names_round_trip() {
+        for a in Axis::ALL {
+            assert_eq!(a.name().parse::<Axis>().unwrap(), a);
+            assert_eq!(Axis::ALL[a.index()], a);
+        }
+        assert!("gyro_w".parse::<Axis>().is_err());
+    }
+
+    #[test]
+    fn stamps_are_classified_and_counted() {
+        let mut c = StampCheck::new(0.01);
+        assert_eq!(c.check(0), StampClass::Next);
+        assert_eq!(c.check(10_000_000), StampClass::Next);
+        assert_eq!(c.check(10_000_000), StampClass::Duplicate);
+        assert_eq!(c.check(5_000_000), StampClass::Backwards);
+        assert_eq!(c.check(50_000_000), StampClass::Gap { missing: 3 });
+        assert_eq!(c.check(60_000_000), StampClass::Next);
+        let n = c.counts();
+        assert_eq!((n.gaps, n.duplicates, n.backwards), (1, 1, 1));
+    }
+}

@@ -90,8 +90,8 @@ mod tests {
         let mut p = PeriodEstimator::new(5);
         let stamps = [0, 10, 20, 20, 95, 105, 115, 125];
         let got: Vec<_> = stamps.iter().map(|&s| p.push(s * 1_000_000)).collect();
-        assert_eq!(got[6], None);
-        assert_eq!(got[7], Some(0.01));
+        assert_eq!(got[5], None);
+        assert_eq!(got[6], Some(0.01));
         assert_eq!(p.push(1), Some(0.01));
     }
 

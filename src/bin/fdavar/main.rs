@@ -1,5 +1,93 @@
-//! `fdavar`: the offline command-line tool. Parses arguments, calls the library, maps outcomes to exit codes.
-fn main() {
-    eprintln!("fdavar: not built yet");
-    std::process::exit(1);
+//! `fdavar`: the offline command-line tool.
+//!
+//! Thin by design: each subcommand module parses its flags (clap derive, doc comments are the help),
+//! validates them into a run configuration, calls the library and returns an [`Outcome`]. This file
+//! is the one place that maps outcomes to exit codes.
+
+mod allan;
+mod davar;
+mod diagnose;
+mod fit;
+mod play;
+mod simulate;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Exit codes (also listed in `--help`).
+const EXIT_OK: u8 = 0;
+const EXIT_ERROR: u8 = 1;
+const EXIT_USAGE: u8 = 2;
+const EXIT_WARNINGS: u8 = 3;
+
+/// How a subcommand finished when it did not fail.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outcome {
+    /// Everything as expected.
+    Ok,
+    /// Finished, but with warnings already printed (gaps dropped, a poor fit, …).
+    Warnings,
+}
+
+/// Adaptive-window dynamic Allan variance (F-DAVAR) of IMU noise, offline.
+///
+/// Reads rosbag2 recordings (a bag directory, a .mcap or a .db3) or plain text / CSV, computes the
+/// Allan variance and the F-DAVAR surface per axis, fits the IMU noise model, and tells which
+/// physical effect the model misses.
+#[derive(Debug, Parser, PartialEq)]
+#[command(
+    name = "fdavar",
+    version,
+    after_help = "Exit codes: 0 ok; 1 runtime error; 2 usage error; 3 finished with warnings.\n\
+                  Axes: gyro_x gyro_y gyro_z (rad/s), accel_x accel_y accel_z (m/s^2)."
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand, PartialEq)]
+enum Command {
+    Allan(allan::Args),
+    Davar(davar::Args),
+    Fit(fit::Args),
+    Diagnose(diagnose::Args),
+    Simulate(simulate::Args),
+    Play(play::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            let code = if e.use_stderr() { EXIT_USAGE } else { EXIT_OK };
+            let _ = e.print();
+            return ExitCode::from(code);
+        }
+    };
+    let result = match &cli.command {
+        Command::Allan(a) => allan::run(a),
+        Command::Davar(a) => davar::run(a),
+        Command::Fit(a) => fit::run(a),
+        Command::Diagnose(a) => diagnose::run(a),
+        Command::Simulate(a) => simulate::run(a),
+        Command::Play(a) => play::run(a),
+    };
+    match result {
+        Ok(Outcome::Ok) => ExitCode::from(EXIT_OK),
+        Ok(Outcome::Warnings) => ExitCode::from(EXIT_WARNINGS),
+        Err(e) if is_broken_pipe(&e) => ExitCode::from(EXIT_OK),
+        Err(e) => {
+            eprintln!("fdavar: error: {e:#}");
+            ExitCode::from(EXIT_ERROR)
+        }
+    }
+}
+
+/// A closed stdout (`fdavar … | head`) is not an error.
+fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
 }

@@ -1,0 +1,11 @@
+//! `fdavar allan` (not built yet; see its issue).
+
+use crate::Outcome;
+
+/// `fdavar allan`: not built yet.
+#[derive(Debug, clap::Args, PartialEq)]
+pub struct Args {}
+
+pub fn run(_args: &Args) -> anyhow::Result<Outcome> {
+    anyhow::bail!("'fdavar allan' is not built yet")
+}

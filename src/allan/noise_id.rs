@@ -4,8 +4,8 @@
 //! PM), 1 (flicker PM), 0 (white FM), −1 (flicker FM), −2 (random-walk FM), −3, −4}. Stable32 (and
 //! this module) identify α per τ the way Riley & Greenhall recommend:
 //! - with at least [`ACF_MIN_POINTS`] phase points after decimation by m: the lag-1 autocorrelation
-//!   of the (quadratically detrended) decimated phase, differenced until it is no longer strongly
-//!   correlated;
+//!   of the m-sample frequency averages (linear drift removed), differenced until it is no longer
+//!   strongly correlated;
 //! - otherwise: Barnes' B1 ratio (standard variance over Allan variance) against its theoretical
 //!   value for each power law, and the R(n) ratio (MVAR/AVAR) to split white from flicker PM.
 //!
@@ -62,22 +62,28 @@ pub fn identify(x: &[f64], m: usize, d_max: u32) -> Option<(i32, NoiseIdMethod)>
     Some((alpha.clamp(min_alpha, 2), method))
 }
 
-/// Lag-1 ACF method on decimated phase: α = round(−2(δ + d)) + 2.
+/// Lag-1 ACF method on the frequency averages of the decimated phase: α = −round(2δ) − 2d.
+///
+/// The decimated phase is differenced once (m-sample frequency averages) and its linear trend
+/// (frequency drift) removed before the first test. Testing the phase itself first (d = 0 on
+/// phase, as allantools does) misreads short decimated records: on the Cs5071A record at m = 10⁴
+/// (56 points) it gives white PM where Stable32 reports white FM; the frequency form agrees.
 ///
 /// # Formula
 /// ```text
 /// r1 = Σ (z[i] − z̄)(z[i+1] − z̄) / Σ (z[i] − z̄)²,   δ = r1/(1 + r1)
 /// ```
-/// where z is the detrended phase differenced d times, d growing from 0 until δ < 0.25 or
+/// where z is the detrended frequency differenced d times, d growing from 0 until δ < 0.25 or
 /// d = d_max.
 fn lag1_acf_alpha(decimated: &[f64], d_max: u32) -> Option<i32> {
-    let mut z = detrend_quadratic(decimated)?;
+    let freq: Vec<f64> = decimated.windows(2).map(|w| w[1] - w[0]).collect();
+    let mut z = detrend(&freq, 1)?;
     let mut d = 0u32;
     loop {
         let r1 = lag1_acf(&z)?;
         let delta = r1 / (1.0 + r1);
         if delta < 0.25 || d >= d_max {
-            return Some(2 - (2.0 * delta).round() as i32 - 2 * d as i32);
+            return Some(-(2.0 * delta).round() as i32 - 2 * d as i32);
         }
         z = z.windows(2).map(|w| w[1] - w[0]).collect();
         d += 1;
@@ -94,33 +100,25 @@ fn lag1_acf(z: &[f64]) -> Option<f64> {
     (den > 0.0).then(|| num / den)
 }
 
-/// Removes the least-squares quadratic (frequency offset and drift) from `v`.
-fn detrend_quadratic(v: &[f64]) -> Option<Vec<f64>> {
+/// Removes the least-squares polynomial of `degree` from `v`.
+fn detrend(v: &[f64], degree: usize) -> Option<Vec<f64>> {
     let n = v.len();
-    if n < 4 {
+    if n < degree + 2 {
         return None;
     }
-    // Fit in t ∈ [−1, 1] for conditioning; solve the 3×3 normal equations.
+    // Fit in t ∈ [−1, 1] for conditioning; solve the small normal equations.
     let half = (n - 1) as f64 / 2.0;
     let t = |i: usize| (i as f64 - half) / half.max(1.0);
-    let mut a = nalgebra::Matrix3::<f64>::zeros();
-    let mut b = nalgebra::Vector3::<f64>::zeros();
+    let basis = |i: usize| nalgebra::DVector::from_fn(degree + 1, |k, _| t(i).powi(k as i32));
+    let mut a = nalgebra::DMatrix::<f64>::zeros(degree + 1, degree + 1);
+    let mut b = nalgebra::DVector::<f64>::zeros(degree + 1);
     for (i, &y) in v.iter().enumerate() {
-        let ti = t(i);
-        let row = nalgebra::Vector3::new(1.0, ti, ti * ti);
-        a += row * row.transpose();
-        b += row * y;
+        let row = basis(i);
+        a += &row * row.transpose();
+        b += &row * y;
     }
     let c = a.lu().solve(&b)?;
-    Some(
-        v.iter()
-            .enumerate()
-            .map(|(i, &y)| {
-                let ti = t(i);
-                y - (c[0] + c[1] * ti + c[2] * ti * ti)
-            })
-            .collect(),
-    )
+    Some(v.iter().enumerate().map(|(i, &y)| y - c.dot(&basis(i))).collect())
 }
 
 /// B1 method: μ from the ratio of the standard variance of m-averages to their Allan variance.

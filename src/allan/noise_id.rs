@@ -118,7 +118,12 @@ fn detrend(v: &[f64], degree: usize) -> Option<Vec<f64>> {
         b += &row * y;
     }
     let c = a.lu().solve(&b)?;
-    Some(v.iter().enumerate().map(|(i, &y)| y - c.dot(&basis(i))).collect())
+    Some(
+        v.iter()
+            .enumerate()
+            .map(|(i, &y)| y - c.dot(&basis(i)))
+            .collect(),
+    )
 }
 
 /// B1 method: μ from the ratio of the standard variance of m-averages to their Allan variance.
@@ -137,8 +142,12 @@ fn b1_alpha(x: &[f64], m: usize) -> Option<i32> {
     }
     let mean = averages.iter().sum::<f64>() / n as f64;
     let std_var = averages.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
-    let allan_var = averages.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2.0 * (n - 1) as f64);
-    if !(allan_var > 0.0) {
+    let allan_var = averages
+        .windows(2)
+        .map(|w| (w[1] - w[0]).powi(2))
+        .sum::<f64>()
+        / (2.0 * (n - 1) as f64);
+    if allan_var.is_nan() || allan_var <= 0.0 {
         return None;
     }
     let ratio = std_var / allan_var;
@@ -156,7 +165,11 @@ fn b1_alpha(x: &[f64], m: usize) -> Option<i32> {
     }
     // μ = −2: white PM (R(n) = 1/m) or flicker PM (R(n) from the PSD integrals).
     let rn = naive_ratio_mvar_avar(x, m)?;
-    Some(if rn < (rn_theory(m, 2) * rn_theory(m, 1)).sqrt() { 2 } else { 1 })
+    Some(if rn < (rn_theory(m, 2) * rn_theory(m, 1)).sqrt() {
+        2
+    } else {
+        1
+    })
 }
 
 /// Barnes' B1 bias function for N averages and τ-exponent μ of the Allan variance.
@@ -237,7 +250,10 @@ mod tests {
         };
         let wfm = hits(0, &|w| integrate(w));
         let rwfm = hits(-2, &|w| integrate(&integrate(w)));
-        assert!(wfm >= 14 && rwfm >= 14, "white FM {wfm}/20, random-walk FM {rwfm}/20");
+        assert!(
+            wfm >= 14 && rwfm >= 14,
+            "white FM {wfm}/20, random-walk FM {rwfm}/20"
+        );
     }
 
     #[test]

@@ -90,6 +90,9 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
+    /// A fast path's signature.
+    type Fast = fn(&[f64], f64, usize) -> Option<(f64, usize)>;
+
     fn close(a: f64, b: f64) -> bool {
         (a - b).abs() <= 1e-9 * b.abs().max(f64::MIN_POSITIVE)
     }
@@ -136,8 +139,7 @@ mod tests {
             0.0, 103.11111, 123.22222, 157.33333, 166.44444, 48.55555, -96.33333, -2.22222,
             111.88889, 0.0,
         ];
-        let dev =
-            |f: fn(&[f64], f64, usize) -> Option<(f64, usize)>, m| f(&x, 1.0, m).unwrap().0.sqrt();
+        let dev = |f: Fast, m| f(&x, 1.0, m).unwrap().0.sqrt();
         let rel = |a: f64, b: f64| (a / b - 1.0).abs();
         assert!(rel(dev(avar, 1), 91.22945) < 1e-6);
         assert!(rel(dev(avar, 2), 115.8082) < 1e-6);

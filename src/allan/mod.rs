@@ -248,7 +248,7 @@ pub fn estimate(
         .iter()
         .filter_map(|&m| {
             let (avar, terms) = estimator.variance(x, tau0, m)?;
-            let alpha = noise_id::identify(x, m, shape.d).map(|(a, _)| a);
+            let alpha = noise_id::identify(x, m, shape.d, terms).map(|(a, _)| a);
             Some(Estimate {
                 point: with_confidence(
                     m,

@@ -33,6 +33,12 @@ pub enum NoiseIdMethod {
 
 /// Identifies the integer power-law exponent α at averaging factor `m` from phase data `x`.
 ///
+/// `terms` is the number of terms of the estimate α is wanted for; the B1 method takes the N of
+/// Barnes' theoretical ratio as the number of frequency values those terms span, terms + d_max − 1
+/// (the m-averages for ADEV/HDEV, about the term count for OADEV/MDEV). This choice is empirical:
+/// it is the one that reproduces every Alpha of Stable32's Cs5071A tables for all four
+/// estimators (the measured ratio is always the standard variance over the non-overlapping Allan
+/// variance of the m-averages).
 /// `d_max` is the difference order of the variance (2 for Allan, 3 for Hadamard): the result is
 /// clamped to the α range that variance converges for (α > 1 − 2·d_max). Returns `None` when
 /// there is too little data for either method (fewer than two whole averages of m samples) or
@@ -43,9 +49,9 @@ pub enum NoiseIdMethod {
 /// use rand::{Rng, SeedableRng};
 /// let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
 /// let white_pm: Vec<f64> = (0..2000).map(|_| rng.random::<f64>() - 0.5).collect();
-/// assert_eq!(identify(&white_pm, 1, 2), Some((2, NoiseIdMethod::Lag1Acf)));
+/// assert_eq!(identify(&white_pm, 1, 2, 1998), Some((2, NoiseIdMethod::Lag1Acf)));
 /// ```
-pub fn identify(x: &[f64], m: usize, d_max: u32) -> Option<(i32, NoiseIdMethod)> {
+pub fn identify(x: &[f64], m: usize, d_max: u32, terms: usize) -> Option<(i32, NoiseIdMethod)> {
     if m == 0 {
         return None;
     }
@@ -57,7 +63,10 @@ pub fn identify(x: &[f64], m: usize, d_max: u32) -> Option<(i32, NoiseIdMethod)>
     let (alpha, method) = if decimated.len() >= ACF_MIN_POINTS {
         (lag1_acf_alpha(&decimated, d_max)?, NoiseIdMethod::Lag1Acf)
     } else {
-        (b1_alpha(x, m)?, NoiseIdMethod::B1)
+        (
+            b1_alpha(x, m, terms + d_max as usize - 1)?,
+            NoiseIdMethod::B1,
+        )
     };
     Some((alpha.clamp(min_alpha, 2), method))
 }
@@ -126,8 +135,9 @@ fn detrend(v: &[f64], degree: usize) -> Option<Vec<f64>> {
     )
 }
 
-/// B1 method: μ from the ratio of the standard variance of m-averages to their Allan variance.
-fn b1_alpha(x: &[f64], m: usize) -> Option<i32> {
+/// B1 method: μ from the ratio of the standard variance of m-averages to their Allan variance,
+/// compared with Barnes' B1(N = `n_theory`, μ).
+fn b1_alpha(x: &[f64], m: usize, n_theory: usize) -> Option<i32> {
     // Frequency averages over m samples: ȳ_k = (x[(k+1)m] − x[km]) / m (τ0 cancels in ratios).
     let averages: Vec<f64> = x
         .iter()
@@ -155,7 +165,8 @@ fn b1_alpha(x: &[f64], m: usize) -> Option<i32> {
     // geometric means of neighbouring theoretical values.
     let mut mu = -2;
     for cand in -1..=2 {
-        let boundary = (b1_theory(n, cand - 1) * b1_theory(n, cand)).sqrt();
+        let boundary =
+            (b1_theory(n_theory.max(2), cand - 1) * b1_theory(n_theory.max(2), cand)).sqrt();
         if ratio > boundary {
             mu = cand;
         }
@@ -229,11 +240,20 @@ mod tests {
     #[test]
     fn acf_identifies_white_pm_fm_and_random_walk_fm() {
         let w = white(20_000, 1);
-        assert_eq!(identify(&w, 1, 2), Some((2, NoiseIdMethod::Lag1Acf)));
+        assert_eq!(
+            identify(&w, 1, 2, 19_998),
+            Some((2, NoiseIdMethod::Lag1Acf))
+        );
         let wfm = integrate(&w);
-        assert_eq!(identify(&wfm, 4, 2), Some((0, NoiseIdMethod::Lag1Acf)));
+        assert_eq!(
+            identify(&wfm, 4, 2, 19_993),
+            Some((0, NoiseIdMethod::Lag1Acf))
+        );
         let rwfm = integrate(&integrate(&w));
-        assert_eq!(identify(&rwfm, 4, 2), Some((-2, NoiseIdMethod::Lag1Acf)));
+        assert_eq!(
+            identify(&rwfm, 4, 2, 19_992),
+            Some((-2, NoiseIdMethod::Lag1Acf))
+        );
     }
 
     #[test]
@@ -244,7 +264,7 @@ mod tests {
             (0..20)
                 .filter(|&seed| {
                     let x = make(&white(20_000, 100 + seed));
-                    identify(&x, 1000, 2) == Some((alpha, NoiseIdMethod::B1))
+                    identify(&x, 1000, 2, 19) == Some((alpha, NoiseIdMethod::B1))
                 })
                 .count()
         };
@@ -258,7 +278,7 @@ mod tests {
 
     #[test]
     fn too_little_data_or_constant_gives_none() {
-        assert_eq!(identify(&[1.0, 2.0], 4, 2), None);
-        assert_eq!(identify(&[3.0; 100], 1, 2), None);
+        assert_eq!(identify(&[1.0, 2.0], 4, 2, 0), None);
+        assert_eq!(identify(&[3.0; 100], 1, 2, 98), None);
     }
 }

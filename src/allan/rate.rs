@@ -107,7 +107,7 @@ pub fn oavar_rate_counted(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<Rat
             }
             let tau = m as f64 * tau0;
             let avar = sum / (2.0 * tau * tau * terms as f64);
-            let alpha = noise_id::identify(&compact_phase, m, shape.d).map(|(a, _)| a);
+            let alpha = noise_id::identify(&compact_phase, m, shape.d, terms).map(|(a, _)| a);
             let point = with_confidence(
                 m,
                 tau,

@@ -117,10 +117,7 @@ impl ChangeDetector {
     /// Feeds one row; returns an event when one has just closed. `time_of` maps a sample index to
     /// seconds from the first sample.
     pub fn push(&mut self, row: &DavarRow, time_of: &dyn Fn(u64) -> f64) -> Option<ChangeEvent> {
-        let Some(p) = row.points.first() else {
-            return None;
-        };
-        let avar = p.avar;
+        let avar = row.points.first()?.avar;
         let flagged = self.flag(row);
         if flagged != Some(true) {
             self.level.push(avar);

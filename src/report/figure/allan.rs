@@ -1,17 +1,8 @@
 //! The Allan deviation figure: measured σ(τ) with its confidence band, the fitted model and each of
 //! its terms, and a residual panel of z with the failing τ ranges shaded.
-use std::path::{Path, PathBuf};
-
-use plotters::coord::Shift;
-use plotters::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{
-    check_finite, check_intervals, check_non_empty, check_positive, decade_label, decade_range,
-    draw_legend, draw_ticks, min_max, plain_label, text, write_figure, Drawn, Figure, LegendMark,
-    ALERT, BAND, GRID, MEASURED, SHADE, TERM_COLOURS,
-};
-use crate::report::ReportError;
+use super::*;
 
 const FIGURE: &str = "allan";
 
@@ -147,49 +138,29 @@ fn validate_model(which: &str, m: &ModelCurves) -> Result<(), ReportError> {
     let f = |name: &str| format!("{which}{name}");
     check_non_empty(FIGURE, &f("total"), m.total.len())?;
     check_positive(FIGURE, &f("total.tau"), m.total.iter().map(|p| p.0))?;
-    check_non_negative(&f("total.dev"), m.total.iter().map(|p| p.1))?;
+    let non_negative = |field: &str, values: &[(f64, f64)]| {
+        check_values(
+            FIGURE,
+            field,
+            values.iter().map(|p| p.1),
+            Need::NonNegative,
+            false,
+        )
+    };
+    non_negative(&f("total.dev"), &m.total)?;
     for (i, term) in m.terms.iter().enumerate() {
         check_positive(
             FIGURE,
             &f(&format!("terms[{i}].tau")),
             term.curve.iter().map(|p| p.0),
         )?;
-        check_non_negative(
-            &f(&format!("terms[{i}].dev")),
-            term.curve.iter().map(|p| p.1),
-        )?;
+        non_negative(&f(&format!("terms[{i}].dev")), &term.curve)?;
     }
     check_non_empty(FIGURE, &f("z"), m.z.len())?;
     check_positive(FIGURE, &f("z.tau"), m.z.iter().map(|p| p.0))?;
     check_finite(FIGURE, &f("z.z"), m.z.iter().map(|p| p.1))?;
     check_intervals(FIGURE, &f("failing_tau"), &m.failing_tau, true)?;
     check_finite(FIGURE, &f("fit_error"), [m.fit_error])
-}
-
-/// Model curves may be 0 (a term fitted to zero is simply not drawn) but not negative or NaN.
-fn check_non_negative(
-    field: &str,
-    values: impl IntoIterator<Item = f64>,
-) -> Result<(), ReportError> {
-    for (index, value) in values.into_iter().enumerate() {
-        if !value.is_finite() {
-            return Err(ReportError::NotFinite {
-                figure: FIGURE,
-                field: field.to_string(),
-                index,
-                value,
-            });
-        }
-        if value < 0.0 {
-            return Err(ReportError::NotPositive {
-                figure: FIGURE,
-                field: field.to_string(),
-                index,
-                value,
-            });
-        }
-    }
-    Ok(())
 }
 
 /// A validated Allan figure with one column per model and shared axis ranges.
@@ -315,18 +286,13 @@ impl<'a> Panels<'a> {
                 self.tau_range.clone().log_scale(),
                 self.dev_range.clone().log_scale(),
             )?;
-        chart
-            .configure_mesh()
+        mesh_look(&mut chart.configure_mesh())
             .x_desc("τ [s]")
             .y_desc(format!("Allan deviation σ(τ) [{}]", self.unit))
             .x_labels(40)
             .y_labels(40)
             .x_label_formatter(&decade_label)
             .y_label_formatter(&decade_label)
-            .label_style(text(15))
-            .axis_desc_style(text(17))
-            .bold_line_style(GRID.stroke_width(1))
-            .light_line_style(WHITE.mix(0.0))
             .draw()?;
         let (y0, y1) = (self.dev_range.start, self.dev_range.end);
         chart.draw_series(
@@ -368,17 +334,12 @@ impl<'a> Panels<'a> {
             .x_label_area_size(42)
             .y_label_area_size(70)
             .build_cartesian_2d(self.tau_range.clone().log_scale(), -b..b)?;
-        zchart
-            .configure_mesh()
+        mesh_look(&mut zchart.configure_mesh())
             .x_desc("τ [s]")
             .y_desc("z (symmetric log scale)")
             .x_labels(40)
             .y_labels(0)
             .x_label_formatter(&decade_label)
-            .label_style(text(15))
-            .axis_desc_style(text(17))
-            .bold_line_style(GRID.stroke_width(1))
-            .light_line_style(WHITE.mix(0.0))
             .draw()?;
         zchart.draw_series(
             spans
@@ -461,22 +422,13 @@ impl Figure for Panels<'_> {
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Drawn {
-        root.fill(&WHITE)?;
         let (w, _) = root.dim_in_pixel();
         let heading = if self.title.is_empty() {
             format!("Allan deviation — {}", self.axis)
         } else {
             format!("{} — {}", self.title, self.axis)
         };
-        let (head, body) = root.split_vertically(44);
-        head.draw(&Text::new(
-            heading,
-            (18, 12),
-            text(24).pos(plotters::style::text_anchor::Pos::new(
-                plotters::style::text_anchor::HPos::Left,
-                plotters::style::text_anchor::VPos::Top,
-            )),
-        ))?;
+        let body = draw_heading(root, heading)?;
         let (plots, legend) = body.split_horizontally(w - 250);
         let columns = plots.split_evenly((1, self.models.len()));
         for (area, (heading, model)) in columns.iter().zip(&self.models) {

@@ -111,17 +111,48 @@ fn write_figure<F: Figure>(figure: &F, stem: &Path) -> Result<Vec<PathBuf>, Repo
 // ---------------------------------------------------------------------------------------------
 // Validation of plain input data.
 
-/// Checks that `values` are all finite; `field` names them in the error.
-fn check_finite(
+/// What each value of a field must be.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Need {
+    /// Any finite number.
+    Finite,
+    /// Finite and ≥ 0 (a model term may be exactly 0: it is then not drawn).
+    NonNegative,
+    /// Finite and > 0 (it goes on a log axis).
+    Positive,
+}
+
+/// Checks every value of a field against `need`; with `nan_is_gap`, NaN means "no value" and
+/// passes. The error names `field` and the index of the first bad value.
+fn check_values(
     figure: &'static str,
     field: &str,
     values: impl IntoIterator<Item = f64>,
+    need: Need,
+    nan_is_gap: bool,
 ) -> Result<(), ReportError> {
     for (index, value) in values.into_iter().enumerate() {
+        let field = || field.to_string();
+        if value.is_nan() && nan_is_gap {
+            continue;
+        }
         if !value.is_finite() {
             return Err(ReportError::NotFinite {
                 figure,
-                field: field.to_string(),
+                field: field(),
+                index,
+                value,
+            });
+        }
+        let too_small = match need {
+            Need::Finite => false,
+            Need::NonNegative => value < 0.0,
+            Need::Positive => value <= 0.0,
+        };
+        if too_small {
+            return Err(ReportError::NotPositive {
+                figure,
+                field: field(),
                 index,
                 value,
             });
@@ -130,31 +161,22 @@ fn check_finite(
     Ok(())
 }
 
+/// Checks that `values` are all finite; `field` names them in the error.
+fn check_finite(
+    figure: &'static str,
+    field: &str,
+    values: impl IntoIterator<Item = f64>,
+) -> Result<(), ReportError> {
+    check_values(figure, field, values, Need::Finite, false)
+}
+
 /// Checks that `values` are all finite and > 0 (they go on a log axis).
 fn check_positive(
     figure: &'static str,
     field: &str,
     values: impl IntoIterator<Item = f64>,
 ) -> Result<(), ReportError> {
-    for (index, value) in values.into_iter().enumerate() {
-        if !value.is_finite() {
-            return Err(ReportError::NotFinite {
-                figure,
-                field: field.to_string(),
-                index,
-                value,
-            });
-        }
-        if value <= 0.0 {
-            return Err(ReportError::NotPositive {
-                figure,
-                field: field.to_string(),
-                index,
-                value,
-            });
-        }
-    }
-    Ok(())
+    check_values(figure, field, values, Need::Positive, false)
 }
 
 /// Checks that `values` are finite and strictly increasing.
@@ -358,6 +380,37 @@ fn min_max(values: impl IntoIterator<Item = f64>) -> Option<(f64, f64)> {
             None => Some((v, v)),
             Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
         })
+}
+
+/// Draws `title` in a 44-pixel band at the top of `root` and returns the area below it.
+fn draw_heading<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: String,
+) -> Result<DrawingArea<DB, Shift>, DrawFailed> {
+    use plotters::style::text_anchor::{HPos, Pos, VPos};
+    root.fill(&WHITE)?;
+    let (head, body) = root.split_vertically(44);
+    head.draw(&Text::new(
+        title,
+        (18, 12),
+        text(24).pos(Pos::new(HPos::Left, VPos::Top)),
+    ))?;
+    Ok(body)
+}
+
+/// The figures' common mesh look: label and title fonts, light grid at the labelled ticks only.
+fn mesh_look<'m, 'a, 'b, X, Y, DB>(
+    mesh: &'m mut plotters::chart::MeshStyle<'a, 'b, X, Y, DB>,
+) -> &'m mut plotters::chart::MeshStyle<'a, 'b, X, Y, DB>
+where
+    X: plotters::coord::ranged1d::Ranged,
+    Y: plotters::coord::ranged1d::Ranged,
+    DB: DrawingBackend,
+{
+    mesh.label_style(text(15))
+        .axis_desc_style(text(17))
+        .bold_line_style(GRID.stroke_width(1))
+        .light_line_style(WHITE.mix(0.0))
 }
 
 /// Draws tick marks and labels at backend pixel positions (as `ChartContext::backend_coord`

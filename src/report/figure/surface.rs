@@ -1,16 +1,7 @@
 //! The DAVAR surface σ(t, τ) as a heatmap: analysis time across, τ up (log), colour = log σ.
-use std::path::{Path, PathBuf};
-
-use plotters::coord::Shift;
-use plotters::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{
-    cell_edges, check_increasing, check_intervals, check_len, check_non_empty, check_positive,
-    decade_label, decade_range, draw_ticks, log10_label, min_max, plain_label, text, write_figure,
-    Drawn, Figure,
-};
-use crate::report::ReportError;
+use super::*;
 
 const FIGURE: &str = "davar surface";
 
@@ -80,8 +71,7 @@ impl<'a> Heatmap<'a> {
         for (i, row) in s.dev.iter().enumerate() {
             let field = format!("dev[{i}]");
             check_len(FIGURE, &field, row.len(), "taus", s.taus.len())?;
-            check_positive(FIGURE, &field, row.iter().copied().filter(|v| !v.is_nan()))
-                .map_err(|e| reindex(e, row))?;
+            check_values(FIGURE, &field, row.iter().copied(), Need::Positive, true)?;
         }
         check_intervals(FIGURE, "events", &s.events, false)?;
         let Some((lo, hi)) = min_max(s.dev.iter().flatten().copied()) else {
@@ -133,44 +123,6 @@ impl<'a> Heatmap<'a> {
     }
 }
 
-/// `check_positive` ran on the row with NaNs filtered out; point its index back into the row.
-fn reindex(e: ReportError, row: &[f64]) -> ReportError {
-    match e {
-        ReportError::NotFinite {
-            figure,
-            field,
-            index,
-            value,
-        } => ReportError::NotFinite {
-            figure,
-            field,
-            index: original_index(row, index),
-            value,
-        },
-        ReportError::NotPositive {
-            figure,
-            field,
-            index,
-            value,
-        } => ReportError::NotPositive {
-            figure,
-            field,
-            index: original_index(row, index),
-            value,
-        },
-        other => other,
-    }
-}
-
-/// Index in `row` of the `k`-th non-NaN value.
-fn original_index(row: &[f64], k: usize) -> usize {
-    row.iter()
-        .enumerate()
-        .filter(|(_, v)| !v.is_nan())
-        .nth(k)
-        .map_or(k, |(i, _)| i)
-}
-
 /// Viridis colour of a log10 σ within the scale.
 fn colour(log_dev: f64, (lo, hi): (f64, f64)) -> RGBColor {
     ViridisRGB::get_color_normalized(log_dev, lo, hi)
@@ -182,7 +134,6 @@ impl Figure for Heatmap<'_> {
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Drawn {
-        root.fill(&WHITE)?;
         let s = self.surface;
         let (w, _) = root.dim_in_pixel();
         let heading = if s.title.is_empty() {
@@ -190,15 +141,7 @@ impl Figure for Heatmap<'_> {
         } else {
             format!("{} — DAVAR surface σ(t, τ) — {}", s.title, s.axis)
         };
-        let (head, body) = root.split_vertically(44);
-        head.draw(&Text::new(
-            heading,
-            (18, 12),
-            text(24).pos(plotters::style::text_anchor::Pos::new(
-                plotters::style::text_anchor::HPos::Left,
-                plotters::style::text_anchor::VPos::Top,
-            )),
-        ))?;
+        let body = draw_heading(root, heading)?;
         let (main, bar) = body.split_horizontally(w - 190);
 
         let t_range = self.t_edges[0]..self.t_edges[self.t_edges.len() - 1];
@@ -214,8 +157,7 @@ impl Figure for Heatmap<'_> {
             .x_label_area_size(45)
             .y_label_area_size(70)
             .build_cartesian_2d(t_range.clone(), tau_range.clone().log_scale())?;
-        chart
-            .configure_mesh()
+        mesh_look(&mut chart.configure_mesh())
             .disable_mesh()
             .x_desc("analysis time t [s]")
             .y_desc("τ [s]")
@@ -223,8 +165,6 @@ impl Figure for Heatmap<'_> {
             .y_labels(40)
             .x_label_formatter(&plain_label)
             .y_label_formatter(&decade_label)
-            .label_style(text(15))
-            .axis_desc_style(text(17))
             .draw()?;
         // Grey for "no value", then one rectangle per cell that has one.
         chart.draw_series(std::iter::once(Rectangle::new(

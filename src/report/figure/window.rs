@@ -1,15 +1,7 @@
 //! The F value and window length over time: two stacked panels, as the seed's Figs. 3–4.
-use std::path::{Path, PathBuf};
-
-use plotters::coord::Shift;
-use plotters::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{
-    check_increasing, check_intervals, check_len, check_non_empty, draw_legend, min_max,
-    plain_label, text, write_figure, Drawn, Figure, LegendMark, ALERT, GRID, MEASURED, SHADE,
-};
-use crate::report::ReportError;
+use super::*;
 
 const FIGURE: &str = "window trace";
 
@@ -56,29 +48,6 @@ struct Trace<'a> {
     w_range: (f64, f64),
 }
 
-/// F values may be NaN (no value yet) but not infinite or negative.
-fn check_ratio(field: &str, values: &[f64]) -> Result<(), ReportError> {
-    for (index, &value) in values.iter().enumerate() {
-        if value.is_infinite() {
-            return Err(ReportError::NotFinite {
-                figure: FIGURE,
-                field: field.into(),
-                index,
-                value,
-            });
-        }
-        if value < 0.0 {
-            return Err(ReportError::NotPositive {
-                figure: FIGURE,
-                field: field.into(),
-                index,
-                value,
-            });
-        }
-    }
-    Ok(())
-}
-
 impl<'a> Trace<'a> {
     fn new(t: &'a WindowTrace) -> Result<Self, ReportError> {
         let n = t.times.len();
@@ -87,8 +56,15 @@ impl<'a> Trace<'a> {
         check_len(FIGURE, "f_value", t.f_value.len(), "times", n)?;
         check_len(FIGURE, "f_reference", t.f_reference.len(), "times", n)?;
         check_len(FIGURE, "window", t.window.len(), "times", n)?;
-        check_ratio("f_value", &t.f_value)?;
-        check_ratio("f_reference", &t.f_reference)?;
+        for (field, values) in [("f_value", &t.f_value), ("f_reference", &t.f_reference)] {
+            check_values(
+                FIGURE,
+                field,
+                values.iter().copied(),
+                Need::NonNegative,
+                true,
+            )?;
+        }
         check_intervals(FIGURE, "events", &t.events, false)?;
         if let Some((l1, l2)) = t.window_limits {
             check_intervals(FIGURE, "window_limits", &[(l1 as f64, l2 as f64)], false)?;
@@ -140,22 +116,13 @@ impl Figure for Trace<'_> {
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Drawn {
         let t = self.trace;
-        root.fill(&WHITE)?;
         let (w, h) = root.dim_in_pixel();
         let heading = if t.title.is_empty() {
             format!("Adaptive window — {}", t.axis)
         } else {
             format!("{} — adaptive window — {}", t.title, t.axis)
         };
-        let (head, body) = root.split_vertically(44);
-        head.draw(&Text::new(
-            heading,
-            (18, 12),
-            text(24).pos(plotters::style::text_anchor::Pos::new(
-                plotters::style::text_anchor::HPos::Left,
-                plotters::style::text_anchor::VPos::Top,
-            )),
-        ))?;
+        let body = draw_heading(root, heading)?;
         let (plots, legend) = body.split_horizontally(w - 230);
         let (top, bottom) = plots.split_vertically((h - 44) / 2);
         let x = t.times[0]..t.times[t.times.len() - 1].max(t.times[0] + 1e-9);
@@ -165,16 +132,12 @@ impl Figure for Trace<'_> {
             .x_label_area_size(30)
             .y_label_area_size(70)
             .build_cartesian_2d(x.clone(), 0.0..self.f_max)?;
-        fc.configure_mesh()
+        mesh_look(&mut fc.configure_mesh())
             .y_desc("F value (window var / σ²_ref)")
             .x_labels(10)
             .y_labels(8)
             .x_label_formatter(&plain_label)
             .y_label_formatter(&plain_label)
-            .label_style(text(15))
-            .axis_desc_style(text(17))
-            .bold_line_style(GRID.stroke_width(1))
-            .light_line_style(WHITE.mix(0.0))
             .draw()?;
         fc.draw_series(
             t.events
@@ -194,17 +157,13 @@ impl Figure for Trace<'_> {
             .x_label_area_size(45)
             .y_label_area_size(70)
             .build_cartesian_2d(x.clone(), w_lo..w_hi)?;
-        wc.configure_mesh()
+        mesh_look(&mut wc.configure_mesh())
             .x_desc("analysis time t [s]")
             .y_desc("window length W [samples]")
             .x_labels(10)
             .y_labels(8)
             .x_label_formatter(&plain_label)
             .y_label_formatter(&plain_label)
-            .label_style(text(15))
-            .axis_desc_style(text(17))
-            .bold_line_style(GRID.stroke_width(1))
-            .light_line_style(WHITE.mix(0.0))
             .draw()?;
         wc.draw_series(
             t.events

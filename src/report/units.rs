@@ -185,9 +185,9 @@ impl Coefficient {
 /// (rad/s/√Hz = rad/√s, rad/s²/√Hz = rad/s/√s).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct KalibrImu {
-    /// Noise density [rad/s/√Hz] or [m/s²/√Hz] = N.
+    /// Noise density \[rad/s/√Hz\] or \[m/s²/√Hz\] = N.
     pub noise_density: f64,
-    /// Random walk [rad/s²/√Hz] or [m/s³/√Hz] = K.
+    /// Random walk \[rad/s²/√Hz\] or \[m/s³/√Hz\] = K.
     pub random_walk: f64,
 }
 

@@ -11,7 +11,7 @@ const FIGURE: &str = "allan";
 /// Plain data so that the figure does not depend on the estimator's types.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct MeasuredPoint {
-    /// Averaging time τ [s].
+    /// Averaging time τ \[s\].
     pub tau: f64,
     /// Allan deviation σ(τ), in the axis unit (rad/s or m/s²).
     pub dev: f64,
@@ -29,7 +29,7 @@ pub struct MeasuredPoint {
 pub struct Term {
     /// The effect name or alias shown in the legend (e.g. `white`, `N`).
     pub name: String,
-    /// (τ [s], σ_term(τ)) pairs, τ increasing.
+    /// (τ \[s\], σ_term(τ)) pairs, τ increasing.
     pub curve: Vec<(f64, f64)>,
 }
 
@@ -41,13 +41,13 @@ pub struct Term {
 pub struct ModelCurves {
     /// What the model is, for titles and legends (e.g. `N + B + K`).
     pub label: String,
-    /// (τ [s], σ_model(τ)): the total model deviation, τ increasing.
+    /// (τ \[s\], σ_model(τ)): the total model deviation, τ increasing.
     pub total: Vec<(f64, f64)>,
     /// Each term's own curve.
     pub terms: Vec<Term>,
-    /// (τ [s], z) residuals on the measured τ grid.
+    /// (τ \[s\], z) residuals on the measured τ grid.
     pub z: Vec<(f64, f64)>,
-    /// Maximal τ intervals [lo, hi] (seconds) where |z| > 3.
+    /// Maximal τ intervals \[lo, hi\] (seconds) where |z| > 3.
     pub failing_tau: Vec<(f64, f64)>,
     /// RMS of z over the τ grid (≈ 1 when the model explains the measurement).
     pub fit_error: f64,
@@ -526,7 +526,7 @@ fn z_ticks(bound: f64) -> Vec<f64> {
     ticks
 }
 
-/// Widens a failing span [lo, hi] by half a grid step on each side (geometric midpoints to the
+/// Widens a failing span \[lo, hi\] by half a grid step on each side (geometric midpoints to the
 /// neighbouring τ of `grid`), so a single failing τ still shows as a band.
 fn pad_span(lo: f64, hi: f64, grid: &[f64]) -> (f64, f64) {
     // Ratio of neighbouring τ; 10^(1/10) (the default grid density) when the grid cannot tell.

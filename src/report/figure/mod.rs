@@ -25,7 +25,7 @@ pub use allan::{
     write_allan, write_allan_comparison, AllanComparison, AllanFigure, MeasuredPoint, ModelCurves,
     Term,
 };
-pub use surface::{write_davar_surface, DavarSurface};
+pub use surface::{write_davar_surface, DavarSurface, SURFACE_MAX_COLUMNS};
 pub use window::{write_window_trace, WindowTrace};
 
 /// DejaVu Sans (Debian fonts-dejavu-core 2.37), bundled so no system font is needed.

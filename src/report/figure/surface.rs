@@ -7,11 +7,11 @@ const FIGURE: &str = "davar surface";
 
 /// At most this many time columns are drawn; longer records are binned (geometric mean of the
 /// rows in each bin), which keeps the SVG small and loses nothing a screen could show.
-pub const MAX_COLUMNS: usize = 600;
+pub const SURFACE_MAX_COLUMNS: usize = 600;
 
 /// The DAVAR surface of one axis: one row σ(t, τ) per analysis time.
 ///
-/// `dev[i][j]` is the Allan deviation at analysis time `times[i]` and averaging time `taus[j]`;
+/// `dev\[i\]\[j\]` is the Allan deviation at analysis time `times\[i\]` and averaging time `taus\[j\]`;
 /// NaN means "no value" (τ beyond the window's τmax = W/3, or a term left out at a gap) and is
 /// drawn grey. Write it with [`write_davar_surface`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -22,19 +22,19 @@ pub struct DavarSurface {
     pub unit: String,
     /// Figure title; the axis is added to it.
     pub title: String,
-    /// Analysis times [s from the first sample], strictly increasing.
+    /// Analysis times \[s from the first sample\], strictly increasing.
     pub times: Vec<f64>,
-    /// Averaging times τ [s], strictly increasing.
+    /// Averaging times τ \[s\], strictly increasing.
     pub taus: Vec<f64>,
     /// σ(t, τ): one row per time, one column per τ; NaN = no value.
     pub dev: Vec<Vec<f64>>,
-    /// Time spans [start, end] (s) where the DAVAR saw the noise change; marked by dashed lines.
+    /// Time spans \[start, end\] (s) where the DAVAR saw the noise change; marked by dashed lines.
     pub events: Vec<(f64, f64)>,
 }
 
 /// Writes the DAVAR heatmap to `<stem>.png` and `<stem>.svg` and returns both paths.
 ///
-/// Records longer than [`MAX_COLUMNS`] analysis times are binned in time for drawing.
+/// Records longer than [`SURFACE_MAX_COLUMNS`] analysis times are binned in time for drawing.
 ///
 /// # Errors
 /// [`ReportError`] when times or τ are empty or not strictly increasing, τ ≤ 0, a row has the wrong
@@ -88,7 +88,7 @@ impl<'a> Heatmap<'a> {
 
         let all_edges = cell_edges(&s.times, false);
         let n = s.times.len();
-        let columns = n.min(MAX_COLUMNS);
+        let columns = n.min(SURFACE_MAX_COLUMNS);
         let mut t_edges = Vec::with_capacity(columns + 1);
         let mut log_dev = Vec::with_capacity(columns);
         for k in 0..columns {
@@ -260,10 +260,10 @@ mod tests {
 
     #[test]
     fn long_records_are_binned_by_geometric_mean() {
-        let s = surface(2 * MAX_COLUMNS);
+        let s = surface(2 * SURFACE_MAX_COLUMNS);
         let h = Heatmap::new(&s).unwrap();
-        assert_eq!(h.log_dev.len(), MAX_COLUMNS);
-        assert_eq!(h.t_edges.len(), MAX_COLUMNS + 1);
+        assert_eq!(h.log_dev.len(), SURFACE_MAX_COLUMNS);
+        assert_eq!(h.t_edges.len(), SURFACE_MAX_COLUMNS + 1);
         // Column 0 holds rows 0 and 1: σ = 1 and 2 → log10 √2.
         assert!((h.log_dev[0][0] - 2f64.sqrt().log10()).abs() < 1e-12);
         assert!(h.log_dev[0][1].is_nan());

@@ -17,17 +17,17 @@ pub struct WindowTrace {
     pub axis: String,
     /// Figure title; the axis is added to it.
     pub title: String,
-    /// Analysis times [s from the first sample], strictly increasing.
+    /// Analysis times \[s from the first sample\], strictly increasing.
     pub times: Vec<f64>,
     /// F(t), the window variance over σ²_ref (dimensionless), one per time.
     pub f_value: Vec<f64>,
     /// F̃(t), the reference F; repeat the value for a fixed F̃, or give the learned `auto` value.
     pub f_reference: Vec<f64>,
-    /// Window length W(t) [samples], one per time.
+    /// Window length W(t) \[samples\], one per time.
     pub window: Vec<usize>,
-    /// The window bounds (λ1, λ2) [samples], drawn as guide lines when given.
+    /// The window bounds (λ1, λ2) \[samples\], drawn as guide lines when given.
     pub window_limits: Option<(usize, usize)>,
-    /// Time spans [start, end] (s) where the noise changed; shaded.
+    /// Time spans \[start, end\] (s) where the noise changed; shaded.
     pub events: Vec<(f64, f64)>,
 }
 

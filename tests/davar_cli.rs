@@ -11,20 +11,30 @@ fn fdavar() -> Command {
 }
 
 /// 3600 samples of white noise whose deviation triples from sample 1200 to 2400 (the seed's test).
-fn seed_signal_file() -> tempfile::NamedTempFile {
+/// Plain text, or CSV with a header `time_s,rate` when `csv` is set.
+fn seed_signal_file(csv: bool) -> tempfile::NamedTempFile {
     let mut rng = ChaCha8Rng::seed_from_u64(11);
     let mut f = tempfile::NamedTempFile::new().unwrap();
-    writeln!(f, "rate_rad_s").unwrap();
+    if csv {
+        writeln!(f, "time_s,rate").unwrap();
+    } else {
+        writeln!(f, "# gyro rate, rad/s").unwrap();
+    }
     for k in 0..3600 {
         let sd = if (1200..2400).contains(&k) { 3e-3 } else { 1e-3 };
-        writeln!(f, "{:.9}", 0.01 + sd * rng.sample::<f64, _>(StandardNormal)).unwrap();
+        let y = 0.01 + sd * rng.sample::<f64, _>(StandardNormal);
+        if csv {
+            writeln!(f, "{:.2},{y:.9}", k as f64 * 0.03).unwrap();
+        } else {
+            writeln!(f, "{y:.9}").unwrap();
+        }
     }
     f
 }
 
 #[test]
 fn json_has_rows_and_the_seed_change() {
-    let file = seed_signal_file();
+    let file = seed_signal_file(false);
     let params = concat!(env!("CARGO_MANIFEST_DIR"), "/launch_params/seed_2016.yaml");
     let out = fdavar()
         .args(["davar", file.path().to_str().unwrap(), "--params", params, "--json", "--every", "10"])
@@ -48,9 +58,9 @@ fn json_has_rows_and_the_seed_change() {
 
 #[test]
 fn csv_has_one_line_per_row_and_tau() {
-    let file = seed_signal_file();
+    let file = seed_signal_file(true);
     let out = fdavar()
-        .args(["davar", file.path().to_str().unwrap(), "--rate", "100", "--csv", "--every", "500"])
+        .args(["davar", file.path().to_str().unwrap(), "--column", "rate", "--rate", "100", "--csv", "--every", "500"])
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(0));
@@ -62,7 +72,7 @@ fn csv_has_one_line_per_row_and_tau() {
 
 #[test]
 fn errors_exit_non_zero_with_a_message() {
-    let file = seed_signal_file();
+    let file = seed_signal_file(false);
     let no_rate = fdavar().args(["davar", file.path().to_str().unwrap()]).output().unwrap();
     assert_eq!(no_rate.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&no_rate.stderr).contains("--rate"));

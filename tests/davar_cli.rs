@@ -89,3 +89,43 @@ fn errors_exit_non_zero_with_a_message() {
     let usage = fdavar().args(["davar", "x.txt", "--json", "--csv"]).output().unwrap();
     assert_eq!(usage.status.code(), Some(2));
 }
+
+/// A bag with a gap and a noise change on gyro_z: six axes analysed, the gap reported (exit 3).
+#[test]
+fn bag_input_runs_all_axes_and_reports_irregularities() {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = dir.path().join("imu_bag");
+    let mut writer = fdavar::bag::BagWriter::create(&bag).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    for k in 0..3000i64 {
+        if (1000..1005).contains(&k) {
+            continue; // a gap of five samples
+        }
+        let mut n = || 1e-3 * rng.sample::<f64, _>(StandardNormal);
+        let burst = if (1500..2200).contains(&k) { 3.0 } else { 1.0 };
+        let sample = fdavar::signal::ImuSample {
+            stamp_ns: 1_000_000_000 + k * 10_000_000,
+            gyro: [n(), n(), burst * n()],
+            accel: [n(), n(), 9.81 + n()],
+        };
+        writer.write_imu("/imu/data", sample.stamp_ns + 500_000, &sample, "imu_link").unwrap();
+    }
+    writer.finish().unwrap();
+    let out = fdavar().args(["davar", bag.to_str().unwrap(), "--json", "--every", "50"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(3), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("1 gaps"));
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!((doc["tau0"].as_f64().unwrap() - 0.01).abs() < 1e-9);
+    assert_eq!(doc["irregularities"]["gaps"].as_u64(), Some(1));
+    let axes: std::collections::BTreeSet<&str> =
+        doc["rows"].as_array().unwrap().iter().map(|r| r["axis"].as_str().unwrap()).collect();
+    assert_eq!(axes.len(), 6);
+    let changed: Vec<&str> = doc["events"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|e| e["event"]["factor"].as_f64().unwrap() > 4.0)
+        .map(|e| e["axis"].as_str().unwrap())
+        .collect();
+    assert_eq!(changed, ["gyro_z"]);
+}

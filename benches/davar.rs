@@ -37,6 +37,17 @@ fn warmed(factors: Vec<usize>, policy: Box<dyn WindowPolicy>, warm: &[f64]) -> D
     engine
 }
 
+/// Times pushing the block, sample by sample, into a warmed-up engine.
+fn push_block(b: &mut criterion::Bencher, engine: &mut DavarEngine, block: &[f64]) {
+    let mut rows = Vec::new();
+    b.iter(|| {
+        for &y in block {
+            engine.push(Some(y), &mut rows);
+            rows.clear();
+        }
+    })
+}
+
 fn forty_factors(max: usize) -> Vec<usize> {
     (1..100)
         .map(|n| TauGrid::PerDecade(n).factors(max))
@@ -52,14 +63,8 @@ fn bench(c: &mut Criterion) {
     for w in [171usize, 5001] {
         let factors = TauGrid::PerDecade(10).factors(171 / 3);
         let mut engine = warmed(factors, Box::new(FixedWindow::new(w)), &warm);
-        let mut rows = Vec::new();
         group.bench_function(BenchmarkId::from_parameter(format!("W{w}")), |b| {
-            b.iter(|| {
-                for &y in &block {
-                    engine.push(Some(y), &mut rows);
-                    rows.clear();
-                }
-            })
+            push_block(b, &mut engine, &block)
         });
     }
     group.finish();
@@ -69,14 +74,8 @@ fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("forty_taus");
     group.throughput(Throughput::Elements(BLOCK as u64));
     let mut engine = warmed(factors, Box::new(SignPolicy::new(1001, 5001, 4)), &warm);
-    let mut rows = Vec::new();
     group.bench_function(BenchmarkId::from_parameter(format!("W5001_K{k}")), |b| {
-        b.iter(|| {
-            for &y in &block {
-                engine.push(Some(y), &mut rows);
-                rows.clear();
-            }
-        })
+        push_block(b, &mut engine, &block)
     });
     group.finish();
 }

@@ -314,7 +314,7 @@ pub static PARAMS: &[ParamSpec] = &[
     ParamSpec {
         name: "events.z",
         kind: ParamType::Float,
-        default: "3.0",
+        default: "4.0",
         description: "change detection band: a row is flagged when the steady short-tau level is outside its z-sigma chi-square interval",
         validate: positive,
     },
@@ -335,7 +335,7 @@ pub static PARAMS: &[ParamSpec] = &[
     ParamSpec {
         name: "events.merge_rows",
         kind: ParamType::Int,
-        default: "25",
+        default: "100",
         description: "most unflagged rows inside one event (shorter quiet runs are merged)",
         validate: |v| int_at_least(v, 0),
     },

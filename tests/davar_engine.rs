@@ -40,6 +40,24 @@ impl WindowPolicy for Scripted {
     }
 }
 
+/// A policy that starts at its shortest window and grows by 10 each row.
+struct Growing(WindowBounds);
+
+impl WindowPolicy for Growing {
+    fn name(&self) -> &'static str {
+        "growing"
+    }
+    fn bounds(&self) -> WindowBounds {
+        self.0
+    }
+    fn initial(&self) -> usize {
+        self.0.min
+    }
+    fn next(&mut self, w: usize, _f: Option<f64>, _t: Option<f64>) -> usize {
+        w + 10
+    }
+}
+
 fn config(max: usize, sigma_ref: SigmaRef, f_target: FTarget) -> EngineConfig {
     EngineConfig {
         factors: TauGrid::PerDecade(10).factors(max / 3),
@@ -239,5 +257,19 @@ fn long_gap_is_skipped_like_pushing_each_marker() {
         for (p, q) in x.points.iter().zip(&y.points) {
             assert!((p.avar - q.avar).abs() <= 1e-9 * q.avar);
         }
+    }
+}
+
+#[test]
+fn a_window_never_reaches_before_the_first_sample() {
+    let data = signal(9, 800, 0.0);
+    let bounds = WindowBounds { min: 11, max: 301 };
+    let mut engine = DavarEngine::new(config(301, SigmaRef::Running, FTarget::Value(1.0)), Box::new(Growing(bounds))).unwrap();
+    let rows = run(&mut engine, &data);
+    assert_eq!(rows[0].index, 5);
+    assert!(rows.iter().all(|r| r.window <= 2 * r.index as usize + 1));
+    assert_eq!(rows.last().unwrap().window, 301);
+    for row in &rows {
+        check_row(row, &data, 0);
     }
 }

@@ -316,8 +316,11 @@ impl DavarEngine {
                 }
             }
             let next = self.policy.next(self.w, f, target);
-            self.w = self.policy.bounds().clamp(next as i64);
             self.t += 1;
+            // A window cannot reach before the first sample: W ≤ 2t + 1 (only a policy that
+            // starts below λ2 and grows early can ask for more).
+            let fits = 2 * self.t as usize + 1;
+            self.w = self.policy.bounds().clamp(next as i64).min(fits);
             out.extend(row);
         }
     }

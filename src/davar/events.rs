@@ -29,7 +29,7 @@ use statrs::distribution::{ContinuousCDF, Normal};
 /// Settings of the change detector.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct DetectorConfig {
-    /// Band half-width in standard deviations (two-sided normal equivalent), default 3.
+    /// Band half-width in standard deviations (two-sided normal equivalent), default 4.
     pub z: f64,
     /// Rows learned unconditionally before any row is flagged.
     pub warmup_rows: usize,
@@ -40,6 +40,9 @@ pub struct DetectorConfig {
 }
 
 /// A span where the noise changed.
+///
+/// A marginal detection (a run of flagged rows shorter than its windows) can give
+/// `start_index > end_index`: the change, if real, is shorter than the window that saw it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ChangeEvent {
     /// Estimated first changed sample (newest sample of the first flagged window), index.

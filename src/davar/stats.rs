@@ -15,14 +15,15 @@ use std::collections::HashMap;
 /// Lower tail probability of the 68.3 % (one-sigma) two-sided interval.
 pub const ONE_SIGMA_LOW: f64 = 0.158_655_253_931_457;
 
-/// Equivalent degrees of freedom of the overlapping Allan variance, white-FM closed form.
+/// Equivalent degrees of freedom of the overlapping Allan variance of a window, for white FM noise.
 ///
 /// White frequency noise on a rate signal is the angle / velocity random walk that dominates an IMU
-/// at the short τ where the DAVAR does its work, so its closed form is the documented simple choice
-/// (DESIGN §2 allows closed forms where documented). It underestimates the spread for flicker and
-/// random-walk noise at long τ.
+/// at the short τ where the DAVAR does its work, so white FM (α = 0) is the documented noise
+/// assumption; it underestimates the spread for flicker and random-walk noise at long τ. The EDF is
+/// Greenhall's ([`crate::allan::edf::greenhall_edf`], α = 0, overlapping Allan shape, N = terms +
+/// 2m phase points); where that is undefined, the closed form below is used.
 ///
-/// # Formula
+/// # Formula (fallback)
 /// ```text
 /// edf = (3(N−1)/(2m) − 2(N−2)/N) · 4m²/(4m² + 5),   N = terms + 2m
 /// ```
@@ -34,10 +35,24 @@ pub const ONE_SIGMA_LOW: f64 = 0.158_655_253_931_457;
 /// 35th Frequency Control Symposium, 1981; Riley, NIST SP 1065, 2008, §5.3 Table 5.
 ///
 /// ```
-/// let e = fdavar::davar::edf_overlapping(1, 499); // a 501-sample window at m = 1
-/// assert!((e - 332.448).abs() < 1e-3);
+/// // A 501-sample window at m = 1: Greenhall and the closed form agree within 1 %.
+/// let e = fdavar::davar::edf_overlapping(1, 499);
+/// assert!((e / fdavar::davar::stats::edf_closed_form(1, 499) - 1.0).abs() < 0.01, "{e}");
 /// ```
 pub fn edf_overlapping(m: usize, terms: usize) -> f64 {
+    let shape = crate::allan::edf::VarianceShape {
+        d: 2,
+        overlapping: true,
+        modified: false,
+    };
+    match crate::allan::edf::greenhall_edf(0, shape, m.max(1), terms + 2 * m.max(1)) {
+        Some(edf) if edf.is_finite() && edf > 0.0 => edf.max(1.0),
+        _ => edf_closed_form(m, terms),
+    }
+}
+
+/// The white-FM closed form of NIST SP 1065 Table 5 (the fallback of [`edf_overlapping`]).
+pub fn edf_closed_form(m: usize, terms: usize) -> f64 {
     let m = m.max(1) as f64;
     let n = terms as f64 + 2.0 * m;
     let raw = (3.0 * (n - 1.0) / (2.0 * m) - 2.0 * (n - 2.0) / n) * 4.0 * m * m / (4.0 * m * m + 5.0);
@@ -120,8 +135,12 @@ mod tests {
     }
 
     #[test]
-    fn edf_is_at_least_one() {
+    fn edf_is_at_least_one_and_near_the_closed_form() {
         assert!(edf_overlapping(100, 1) >= 1.0);
         assert!(edf_overlapping(0, 0) >= 1.0);
+        for (m, terms) in [(1, 170), (5, 491), (50, 401), (167, 168)] {
+            let (g, c) = (edf_overlapping(m, terms), edf_closed_form(m, terms));
+            assert!((g / c - 1.0).abs() < 0.2, "m {m} terms {terms}: {g} vs {c}");
+        }
     }
 }

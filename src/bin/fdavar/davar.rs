@@ -2,11 +2,12 @@
 //!
 //! Reads the input, validates the parameters into a [`DavarConfig`], runs
 //! [`fdavar::pipeline::Pipeline`] (the same path the node runs live) and prints rows and change
-//! events. A plain-text reader lives here only until the shared one (`fdavar::signal::text`) lands.
+//! events. Text files are read by [`fdavar::signal::text`], bags by [`fdavar::bag`].
 
 use crate::Outcome;
 use anyhow::{bail, Context};
 use fdavar::pipeline::{AxisEvent, AxisRow, DavarConfig, Output, Pipeline, SigmaRefMode};
+use fdavar::signal::text::ColumnSelector;
 use fdavar::signal::{Axis, ImuSample};
 use serde::Serialize;
 use std::io::{BufWriter, Write};
@@ -14,9 +15,9 @@ use std::path::{Path, PathBuf};
 
 /// Compute the adaptive-window dynamic Allan variance (F-DAVAR) and its change events.
 ///
-/// FILE is plain text or CSV of rate samples, one sample per line (blank lines, lines starting
-/// with '#' and one header line are skipped; fields split on commas, semicolons or whitespace),
-/// read at --rate HZ. BAG is a rosbag2 recording (directory, .mcap or .db3).
+/// FILE is plain text (one rate sample per line, '#' comments) or CSV (see --column), read at
+/// --rate HZ. BAG is a rosbag2 recording (directory, .mcap or .db3); its sensor_msgs/msg/Imu
+/// topic is analysed with sample times from header.stamp.
 #[derive(Debug, clap::Args, PartialEq)]
 pub struct Args {
     /// Input: a text/CSV file of rate samples, or a rosbag2 recording.
@@ -32,9 +33,13 @@ pub struct Args {
     /// Sample rate of a text file, Hz (overrides the parameter tau0; required when tau0 is 0).
     #[arg(long)]
     pub rate: Option<f64>,
-    /// Column of a text file holding the rate samples, counted from 0.
-    #[arg(long, default_value_t = 0)]
-    pub column: usize,
+    /// CSV column of a text file holding the rate samples, by zero-based index or header name
+    /// (default: one value per line).
+    #[arg(long)]
+    pub column: Option<ColumnSelector>,
+    /// Imu topic of a bag (default: its only sensor_msgs/msg/Imu topic).
+    #[arg(long)]
+    pub topic: Option<String>,
     /// Print one JSON object: rows, change events and irregularity counts.
     #[arg(long, conflicts_with = "csv")]
     pub json: bool,
@@ -112,10 +117,16 @@ fn validate(args: &Args) -> anyhow::Result<RunConfig> {
         None => DavarConfig::default(),
     };
     if is_bag(&args.input) {
-        bail!(
-            "{}: reading rosbag2 recordings needs the bag reader (fdavar::bag), which this build does not have yet; export the axis to text and use --rate",
-            args.input.display()
-        );
+        let samples = read_bag(&args.input, args.topic.as_deref())?;
+        if let Some(rate) = args.rate {
+            bail!("--rate {rate} is for text files; a bag's period comes from its stamps (or the tau0 parameter)");
+        }
+        let axes = args.axis.map_or_else(|| Axis::ALL.to_vec(), |a| vec![a]);
+        return Ok(RunConfig {
+            config,
+            samples,
+            axes,
+        });
     }
     if let Some(rate) = args.rate {
         if !(rate > 0.0 && rate.is_finite()) {
@@ -127,8 +138,7 @@ fn validate(args: &Args) -> anyhow::Result<RunConfig> {
         "a text file needs a sample rate: pass --rate HZ (or set tau0 in the parameter file)",
     )?;
     let axis = args.axis.unwrap_or(Axis::GyroX);
-    let values = read_text(&args.input, args.column)
-        .with_context(|| format!("cannot read {}", args.input.display()))?;
+    let values = fdavar::signal::text::read_column(&args.input, args.column.as_ref())?;
     let samples = values
         .iter()
         .enumerate()
@@ -152,44 +162,31 @@ fn validate(args: &Args) -> anyhow::Result<RunConfig> {
     })
 }
 
+/// The Imu samples of a bag, in file order.
+fn read_bag(path: &Path, topic: Option<&str>) -> anyhow::Result<Vec<ImuSample>> {
+    let bag = fdavar::bag::BagReader::open(path)
+        .with_context(|| format!("cannot open bag {}", path.display()))?;
+    let topic = bag.imu_topic(topic)?.name.clone();
+    let mut samples = Vec::new();
+    for message in bag.messages(&topic, None)? {
+        if let fdavar::bag::BagMessage::Imu { sample, .. } =
+            message.with_context(|| format!("reading {topic} from {}", path.display()))?
+        {
+            samples.push(sample);
+        }
+    }
+    if samples.is_empty() {
+        bail!("{}: topic {topic} holds no messages", path.display());
+    }
+    Ok(samples)
+}
+
 fn is_bag(path: &Path) -> bool {
     path.is_dir()
         || matches!(
             path.extension().and_then(|e| e.to_str()),
             Some("mcap" | "db3")
         )
-}
-
-/// Minimal text reader: one sample per line, the `column`-th field.
-fn read_text(path: &Path, column: usize) -> anyhow::Result<Vec<f64>> {
-    let text = std::fs::read_to_string(path)?;
-    let mut values = Vec::new();
-    let mut header_skipped = false;
-    for (n, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let field = line
-            .split(|c: char| c == ',' || c == ';' || c.is_whitespace())
-            .filter(|f| !f.is_empty())
-            .nth(column);
-        let parsed = field.map(|f| f.trim().parse::<f64>());
-        match parsed {
-            Some(Ok(v)) => values.push(v),
-            _ if values.is_empty() && !header_skipped => header_skipped = true,
-            None => bail!("line {}: no column {column}", n + 1),
-            Some(Err(_)) => bail!(
-                "line {}: '{}' is not a number (column {column})",
-                n + 1,
-                field.unwrap_or_default()
-            ),
-        }
-    }
-    if values.is_empty() {
-        bail!("no samples");
-    }
-    Ok(values)
 }
 
 #[derive(Serialize)]

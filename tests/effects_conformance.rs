@@ -135,7 +135,12 @@ fn slope(f: &dyn Fn(f64) -> f64, tau: f64) -> f64 {
 fn check_effect(case: &Case) -> Report {
     let effect = case.effect.as_ref();
     let white = find("white").unwrap().build(&[case.background_n]).unwrap();
-    let y = simulate(&[white.as_ref(), effect], &context(case.dt), case.len, case.seed);
+    let y = simulate(
+        &[white.as_ref(), effect],
+        &context(case.dt),
+        case.len,
+        case.seed,
+    );
     let x = phase_from_rate(&y, case.dt);
     let background = |tau: f64| white.avar(tau).unwrap();
     let predicted = |tau: f64| background(tau) + effect.avar(tau).unwrap();
@@ -365,14 +370,19 @@ fn check_time_domain(kind: &dyn EffectKind, seed: u64) {
             };
             let y = simulate(&[white.as_ref(), effect.as_ref()], &ctx, len, seed);
             let (beta, se) = regression(&temps, &y);
-            assert!((beta - params(effect.as_ref())[0]).abs() < z999() * se, "{beta} ± {se}");
+            assert!(
+                (beta - params(effect.as_ref())[0]).abs() < z999() * se,
+                "{beta} ± {se}"
+            );
             assert!(y[0].abs() < 5.0 * white_sigma, "zero at the first sample");
         }
         "g_sensitivity" => {
             let effect = build("g_sensitivity", &[1.0, 3e-3]);
             let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xacce1);
             let ax: Vec<f64> = (0..len).map(|_| rng.random::<f64>() - 0.5).collect();
-            let ay: Vec<f64> = (0..len).map(|n| 0.8 * (n as f64 * dt * 2.0 * 3.7).sin()).collect();
+            let ay: Vec<f64> = (0..len)
+                .map(|n| 0.8 * (n as f64 * dt * 2.0 * 3.7).sin())
+                .collect();
             let az = vec![9.80665; len];
             let ctx = SimContext {
                 accel: Some([&ax, &ay, &az]),
@@ -380,9 +390,15 @@ fn check_time_domain(kind: &dyn EffectKind, seed: u64) {
             };
             let y = simulate(&[white.as_ref(), effect.as_ref()], &ctx, len, seed);
             let (beta, se) = regression(&ay, &y);
-            assert!((beta - 3e-3).abs() < z999() * se, "on the source: {beta} ± {se}");
+            assert!(
+                (beta - 3e-3).abs() < z999() * se,
+                "on the source: {beta} ± {se}"
+            );
             let (beta_x, se_x) = regression(&ax, &y);
-            assert!(beta_x.abs() < z999() * se_x, "not on another axis: {beta_x} ± {se_x}");
+            assert!(
+                beta_x.abs() < z999() * se_x,
+                "not on another axis: {beta_x} ± {se_x}"
+            );
         }
         other => panic!("no time-domain conformance case for '{other}': add one"),
     }
@@ -428,7 +444,10 @@ fn registry_order_and_names_are_the_contract() {
 fn every_parameter_rejects_nan_and_out_of_bounds_by_name() {
     for kind in REGISTRY {
         let schema = kind.schema();
-        let good: Vec<f64> = schema.iter().map(|s| s.bounds.0.max(0.0).min(s.bounds.1)).collect();
+        let good: Vec<f64> = schema
+            .iter()
+            .map(|s| s.bounds.0.max(0.0).min(s.bounds.1))
+            .collect();
         for (i, spec) in schema.iter().enumerate() {
             for bad in [f64::NAN, f64::INFINITY, spec.bounds.1 * 2.0 + 1.0] {
                 let mut values = good.clone();
@@ -437,7 +456,11 @@ fn every_parameter_rejects_nan_and_out_of_bounds_by_name() {
                 assert!(err.contains(spec.name), "{}: {err}", kind.id());
             }
         }
-        assert!(kind.build(&good[..good.len() - 1]).is_err(), "arity of {}", kind.id());
+        assert!(
+            kind.build(&good[..good.len() - 1]).is_err(),
+            "arity of {}",
+            kind.id()
+        );
     }
 }
 
@@ -460,7 +483,12 @@ fn every_effect_explains_itself_and_round_trips_its_params() {
         assert_eq!(back, values, "{}", kind.id());
         let e = effect.explain();
         assert!(!e.sentence.is_empty() && !e.reference.is_empty());
-        assert_eq!(effect.avar(1.0).is_some(), kind.domain() == Domain::Spectral, "{}", kind.id());
+        assert_eq!(
+            effect.avar(1.0).is_some(),
+            kind.domain() == Domain::Spectral,
+            "{}",
+            kind.id()
+        );
         if let Some(slope_claim) = e.avar_slope {
             // The claimed slope is the signature's own slope (where it is a power law).
             let f = |t: f64| effect.avar(t).unwrap();

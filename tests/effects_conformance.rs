@@ -229,65 +229,60 @@ fn every_spectral_effect_shows_its_allan_signature() {
     }
 }
 
-/// An effect that simulates white noise but claims 30 % more Allan variance than it makes.
+/// A broken effect for testing the check: it claims `claim`× the signature of `inner`, and
+/// simulates `inner` only when `simulates` is true.
 #[derive(Debug)]
-struct Overclaims(Box<dyn Effect>);
+struct Broken {
+    inner: Box<dyn Effect>,
+    claim: f64,
+    simulates: bool,
+}
 
-impl Effect for Overclaims {
+impl Effect for Broken {
     fn kind(&self) -> &'static dyn EffectKind {
-        self.0.kind()
+        self.inner.kind()
     }
     fn params(&self) -> Vec<Param> {
-        self.0.params()
+        self.inner.params()
     }
     fn avar(&self, tau: f64) -> Option<f64> {
-        self.0.avar(tau).map(|v| 1.3 * v)
+        self.inner.avar(tau).map(|v| self.claim * v)
     }
     fn simulate(&self, ctx: &SimContext<'_>, rng: &mut dyn RngCore, out: &mut [f64]) {
-        self.0.simulate(ctx, rng, out)
+        if self.simulates {
+            self.inner.simulate(ctx, rng, out)
+        }
     }
     fn explain(&self) -> Explanation {
-        self.0.explain()
+        self.inner.explain()
+    }
+}
+
+/// The spectral case of `id`, with its effect replaced by a broken copy.
+fn broken_case(id: &str, claim: f64, simulates: bool) -> Case {
+    let case = spectral_case(find(id).unwrap(), 7);
+    Case {
+        effect: Box::new(Broken {
+            inner: case.effect,
+            claim,
+            simulates,
+        }),
+        ..case
     }
 }
 
 #[test]
 fn the_check_rejects_a_wrong_signature() {
-    let honest = spectral_case(find("white").unwrap(), 7);
-    let liar = Case {
-        effect: Box::new(Overclaims(build("white", &[1e-3]))),
-        ..honest
-    };
-    let report = check_effect(&liar);
+    // White noise that claims 30 % more Allan variance than it makes.
+    let report = check_effect(&broken_case("white", 1.3, true));
     assert!(!report.passes(), "{}", describe(&report));
 }
 
 #[test]
 fn the_check_rejects_an_effect_that_does_nothing() {
-    // Simulated with zero strength, but claiming the signature of a real random walk.
-    #[derive(Debug)]
-    struct Silent(Box<dyn Effect>);
-    impl Effect for Silent {
-        fn kind(&self) -> &'static dyn EffectKind {
-            self.0.kind()
-        }
-        fn params(&self) -> Vec<Param> {
-            self.0.params()
-        }
-        fn avar(&self, tau: f64) -> Option<f64> {
-            self.0.avar(tau)
-        }
-        fn simulate(&self, _: &SimContext<'_>, _: &mut dyn RngCore, _: &mut [f64]) {}
-        fn explain(&self) -> Explanation {
-            self.0.explain()
-        }
-    }
-    let case = spectral_case(find("random_walk").unwrap(), 7);
-    let silent = Case {
-        effect: Box::new(Silent(case.effect)),
-        ..case
-    };
-    assert!(!check_effect(&silent).passes());
+    // Claims the signature of a random walk but simulates nothing.
+    let report = check_effect(&broken_case("random_walk", 1.0, false));
+    assert!(!report.passes(), "{}", describe(&report));
 }
 
 /// Mean and variance of a slice.

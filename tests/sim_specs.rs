@@ -16,19 +16,26 @@ fn shipped_specs_simulate() {
         let path = entry.unwrap().path();
         if path.extension().is_some_and(|e| e == "yaml") {
             let text = std::fs::read_to_string(&path).unwrap();
-            let spec = SimSpec::from_yaml(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            let spec =
+                SimSpec::from_yaml(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
             let rec = simulate(&spec).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
             assert_eq!(rec.imu.len(), spec.samples());
             count += 1;
         }
     }
-    assert!(count >= 3, "expected the clean, seed_2016 and effects specs");
+    assert!(
+        count >= 3,
+        "expected the clean, seed_2016 and effects specs"
+    );
 }
 
 #[test]
 fn the_docs_example_is_the_effects_spec() {
     let doc = std::fs::read_to_string(root().join("docs/sim.md")).unwrap();
-    let start = doc.find("```yaml\n").expect("a yaml example in docs/sim.md") + 8;
+    let start = doc
+        .find("```yaml\n")
+        .expect("a yaml example in docs/sim.md")
+        + 8;
     let end = start + doc[start..].find("```").unwrap();
     let shipped = std::fs::read_to_string(root().join("bags/specs/effects.yaml")).unwrap();
     assert_eq!(&doc[start..end], shipped);

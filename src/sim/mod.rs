@@ -62,12 +62,12 @@ pub struct TruthEffect {
     pub alias: Option<String>,
     /// Parameter name → value (SI; `source` of `g_sensitivity` as 0, 1, 2 = accel_x, y, z).
     pub params: BTreeMap<String, f64>,
-    /// Parameter name → unit (gyro units; on an accel axis read rad as m).
+    /// Parameter name → unit on the axis it was applied to.
     pub units: BTreeMap<String, String>,
 }
 
 impl TruthEffect {
-    fn of(effect: &dyn Effect) -> Self {
+    fn of(effect: &dyn Effect, axis: Axis) -> Self {
         let params = effect.params();
         Self {
             effect: effect.kind().id().into(),
@@ -78,7 +78,7 @@ impl TruthEffect {
                 .collect(),
             units: params
                 .iter()
-                .map(|p| (p.spec.name.into(), p.spec.unit.into()))
+                .map(|p| (p.spec.name.into(), p.spec.unit_on(axis)))
                 .collect(),
         }
     }
@@ -245,12 +245,12 @@ pub fn simulate(spec: &SimSpec) -> Result<Recording, SimError> {
         None => Vec::new(),
     };
 
-    let truth_of = |planned: &[Planned]| -> Vec<TruthEffect> {
+    let truth_of = |planned: &[Planned], axis: Axis| -> Vec<TruthEffect> {
         let mut ordered: Vec<&Planned> = planned.iter().collect();
         ordered.sort_by_key(|p| p.effect.kind().sim_stage() == SimStage::Output);
         ordered
             .iter()
-            .map(|p| TruthEffect::of(p.effect.as_ref()))
+            .map(|p| TruthEffect::of(p.effect.as_ref(), axis))
             .collect()
     };
     let truth = Truth {
@@ -268,14 +268,14 @@ pub fn simulate(spec: &SimSpec) -> Result<Recording, SimError> {
             .map(|k| {
                 (
                     Axis::ALL[k + 3].name().to_string(),
-                    truth_of(&plan.vibration[k]),
+                    truth_of(&plan.vibration[k], Axis::ALL[k + 3]),
                 )
             })
             .collect(),
         axes: Axis::ALL
             .into_iter()
             .filter(|a| !plan.axes[a.index()].is_empty())
-            .map(|a| (a.name().to_string(), truth_of(&plan.axes[a.index()])))
+            .map(|a| (a.name().to_string(), truth_of(&plan.axes[a.index()], a)))
             .collect(),
     };
     Ok(Recording {

@@ -198,6 +198,10 @@ axes:
 "#;
     let rec = simulate(&SimSpec::from_yaml(text).unwrap()).unwrap();
     assert_eq!(rec.imu.len(), 3600);
+    assert!(rec
+        .imu
+        .windows(2)
+        .all(|w| w[1].stamp_ns - w[0].stamp_ns == 30_000_000));
     let y = rec.axis(Axis::GyroX);
     let var = |s: &[f64]| s.iter().map(|v| v * v).sum::<f64>() / s.len() as f64;
     let inside = var(&y[1200..2400]);
@@ -252,6 +256,7 @@ fn invalid_specs_name_the_field() {
         ),
         ("rate_hz: 100", "rate_hz: -100", "rate_hz"),
         ("duration_s: 60", "duration_s: 0.001", "duration_s"),
+        ("duration_s: 60", "duration_s: 1.0e9", "duration_s"),
     ];
     for (from, to, field) in cases {
         let text = SPEC.replacen(from, to, 1);

@@ -52,3 +52,13 @@ fn the_docs_example_is_the_effects_spec() {
         assert!(used, "docs example lacks {}", kind.id());
     }
 }
+
+#[test]
+fn a_spec_survives_yaml_and_json_round_trips() {
+    let text = std::fs::read_to_string(root().join("bags/specs/effects.yaml")).unwrap();
+    let spec = SimSpec::from_yaml(&text).unwrap();
+    let yaml = serde_yaml_ng::to_string(&spec).unwrap();
+    assert_eq!(SimSpec::from_yaml(&yaml).unwrap(), spec);
+    let json = serde_json::to_string(&spec).unwrap();
+    assert_eq!(serde_json::from_str::<SimSpec>(&json).unwrap(), spec);
+}

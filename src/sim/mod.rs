@@ -15,7 +15,7 @@
 
 mod spec;
 
-pub use spec::{EffectMap, ParamValue, SimSpec, TemperatureProfile, Topics};
+pub use spec::{EffectMap, ParamValue, SimSpec, TemperatureProfile, Topics, MAX_SAMPLES};
 
 use crate::model::effects::{Effect, ParamError, SimContext, SimStage};
 use crate::signal::{Axis, ImuSample, TemperatureSample};

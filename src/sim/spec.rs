@@ -59,6 +59,10 @@ pub enum ParamValue {
     Name(String),
 }
 
+/// Largest recording simulated (in memory: about 100 bytes a sample, so ≈ 2 GB), e.g. 400 Hz for
+/// 13.9 h or 1 kHz for 5.5 h.
+pub const MAX_SAMPLES: usize = 20_000_000;
+
 fn default_start() -> i64 {
     1_700_000_000_000_000_000
 }
@@ -266,10 +270,13 @@ impl SimSpec {
         positive("rate_hz", self.rate_hz)?;
         positive("duration_s", self.duration_s)?;
         let samples = self.samples();
-        if !(2..=1_000_000_000).contains(&samples) {
+        if !(2..=MAX_SAMPLES).contains(&samples) {
             return Err(field_error(
                 "duration_s",
-                format!("gives {samples} samples at rate_hz; need 2 to 10⁹"),
+                format!(
+                    "gives {samples} samples at rate_hz; the simulator holds a recording in memory \
+                     and takes 2 to {MAX_SAMPLES}"
+                ),
             ));
         }
         if self.start_time_ns <= 0 {

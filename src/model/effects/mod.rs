@@ -109,6 +109,30 @@ pub struct ParamSpec {
     pub doc: &'static str,
 }
 
+impl ParamSpec {
+    /// The unit of this parameter on `axis`: as written for a gyro axis, with rad read as m/s on
+    /// an accel axis (DESIGN §4), e.g. `rad/s/sqrt(Hz)` → `m/s^2/sqrt(Hz)`.
+    ///
+    /// ```
+    /// use fdavar::model::effects::find;
+    /// use fdavar::signal::Axis;
+    /// let n = find("white").unwrap().schema()[0];
+    /// assert_eq!(n.unit_on(Axis::AccelX), "m/s^2/sqrt(Hz)");
+    /// assert_eq!(find("ramp").unwrap().schema()[0].unit_on(Axis::AccelZ), "m/s^3");
+    /// assert_eq!(n.unit_on(Axis::GyroX), "rad/s/sqrt(Hz)");
+    /// ```
+    pub fn unit_on(&self, axis: crate::signal::Axis) -> String {
+        if axis.is_gyro() {
+            self.unit.to_string()
+        } else {
+            self.unit
+                .replace("rad/s^2", "m/s^3")
+                .replace("rad/s", "m/s^2")
+                .replace("rad", "m/s")
+        }
+    }
+}
+
 /// One parameter value with its schema.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Param {
@@ -256,8 +280,11 @@ pub struct KindInfo {
     /// When the simulator applies it.
     pub stage: SimStage,
     /// Builds the effect from values already checked against `schema`.
-    pub construct: fn(&[f64]) -> Result<Box<dyn Effect>, ParamError>,
+    pub construct: Constructor,
 }
+
+/// Builds a boxed effect from parameter values in schema order.
+pub type Constructor = fn(&[f64]) -> Result<Box<dyn Effect>, ParamError>;
 
 impl EffectKind for KindInfo {
     fn id(&self) -> &'static str {

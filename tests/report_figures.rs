@@ -13,6 +13,7 @@ use fdavar::report::figure::{
     AllanFigure, DavarSurface, MeasuredPoint, ModelCurves, Term, WindowTrace,
 };
 use fdavar::report::ReportError;
+use proptest::prelude::*;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -550,6 +551,26 @@ fn window_bad_input_is_named() {
 }
 
 #[test]
+fn log_axis_spanning_too_many_decades_is_an_error() {
+    let (_tmp, stem) = stem();
+    let mut fig = allan_figure();
+    fig.measured[0].tau = 1e-200;
+    fig.model.total[0].0 = 1e-200;
+    let err = write_allan(&fig, &stem).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            ReportError::RangeTooWide {
+                max_decades: 40,
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+    assert!(err.to_string().contains("`tau` spans 1e-200"), "{err}");
+}
+
+#[test]
 fn window_nan_warmup_is_drawn() {
     let (_tmp, stem) = stem();
     let mut t = window_trace();
@@ -608,4 +629,119 @@ fn figure_data_survives_json() {
         (back.axis, back.before.label, back.after.terms.len()),
         (fig.axis, fig.before.label, 4)
     );
+}
+
+// ----------------------------------------------------------------------------------------------
+// Any numbers at all: an error or two files, never a panic.
+
+/// Finite values of any magnitude, plus the specials that user data can hold.
+fn any_value() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        4 => (-300.0f64..300.0).prop_map(|e| 10f64.powf(e)),
+        1 => (-300.0f64..300.0).prop_map(|e| -(10f64.powf(e))),
+        1 => Just(0.0),
+        1 => Just(f64::NAN),
+        1 => Just(f64::INFINITY),
+        1 => Just(f64::MAX),
+        1 => Just(f64::MIN_POSITIVE),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    #[test]
+    fn allan_never_panics(
+        values in prop::collection::vec((any_value(), any_value(), any_value()), 0..6),
+        z in prop::collection::vec(any_value(), 1..6),
+    ) {
+        let measured: Vec<MeasuredPoint> = values
+            .iter()
+            .map(|&(tau, dev, spread)| MeasuredPoint {
+                tau,
+                dev,
+                dev_low: dev / (1.0 + spread.abs()),
+                dev_high: dev * (1.0 + spread.abs()),
+            })
+            .collect();
+        let taus: Vec<f64> = measured.iter().map(|p| p.tau).collect();
+        let fig = AllanFigure {
+            axis: "gyro_y".into(),
+            unit: "rad/s".into(),
+            title: String::new(),
+            model: ModelCurves {
+                label: "N".into(),
+                total: measured.iter().map(|p| (p.tau, p.dev)).collect(),
+                terms: vec![Term { name: "N".into(), curve: measured.iter().map(|p| (p.tau, p.dev_low)).collect() }],
+                z: taus.iter().zip(z.iter().cycle()).map(|(&t, &z)| (t, z)).collect(),
+                failing_tau: taus.iter().map(|&t| (t, t)).collect(),
+                fit_error: 1.0,
+            },
+            measured,
+        };
+        let tmp = tempfile::tempdir().unwrap();
+        if let Ok(paths) = write_allan(&fig, &tmp.path().join("p")) {
+            prop_assert!(paths.iter().all(|p| p.is_file()));
+        }
+    }
+
+    /// Valid but extreme: any magnitude a double holds draws, as long as each log axis spans at
+    /// most MAX_DECADES; wider spans are a RangeTooWide error (never a hang in the tick code).
+    #[test]
+    fn allan_extreme_valid_values_draw(
+        offset in (-280.0f64..280.0, -280.0f64..280.0),
+        points in prop::collection::vec((-19.0f64..19.0, -19.0f64..19.0, 0.0f64..3.0), 1..6),
+        z in prop::collection::vec(-1e300f64..1e300, 1..6),
+    ) {
+        let mut points = points;
+        points.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let measured: Vec<MeasuredPoint> = points
+            .iter()
+            .map(|&(t, d, spread)| {
+                let dev = 10f64.powf(d + offset.1);
+                MeasuredPoint { tau: 10f64.powf(t + offset.0), dev, dev_low: dev / (1.0 + spread), dev_high: dev * (1.0 + spread) }
+            })
+            .collect();
+        let fig = AllanFigure {
+            axis: "gyro_y".into(),
+            unit: "rad/s".into(),
+            title: String::new(),
+            model: ModelCurves {
+                label: "N".into(),
+                total: measured.iter().map(|p| (p.tau, p.dev)).collect(),
+                terms: vec![],
+                z: measured.iter().zip(z.iter().cycle()).map(|(p, &z)| (p.tau, z)).collect(),
+                failing_tau: vec![],
+                fit_error: 1.0,
+            },
+            measured,
+        };
+        let tmp = tempfile::tempdir().unwrap();
+        let paths = write_allan(&fig, &tmp.path().join("p"));
+        prop_assert!(paths.is_ok(), "{:?}", paths.err());
+    }
+
+    #[test]
+    fn surface_never_panics(
+        times in prop::collection::vec(any_value(), 0..4),
+        cells in prop::collection::vec(any_value(), 0..12),
+    ) {
+        let taus = vec![0.1, 1.0, 10.0];
+        let dev = times
+            .iter()
+            .enumerate()
+            .map(|(i, _)| (0..3).map(|j| cells.get(3 * i + j).copied().unwrap_or(f64::NAN)).collect())
+            .collect();
+        let s = DavarSurface {
+            axis: "accel_x".into(),
+            unit: "m/s²".into(),
+            title: String::new(),
+            times,
+            taus,
+            dev,
+            events: vec![],
+        };
+        let tmp = tempfile::tempdir().unwrap();
+        let _ = write_davar_surface(&s, &tmp.path().join("p"));
+    }
 }

@@ -108,6 +108,20 @@ pub enum ReportError {
         /// The value found.
         value: f64,
     },
+    /// The values of a logarithmic axis span more decades than a figure can show.
+    #[error("{figure}: `{field}` spans {low:e} to {high:e}, more than {max_decades} decades for one log axis")]
+    RangeTooWide {
+        /// Which figure.
+        figure: &'static str,
+        /// Which field of the input.
+        field: String,
+        /// Smallest value.
+        low: f64,
+        /// Largest value.
+        high: f64,
+        /// The most decades an axis may span.
+        max_decades: u32,
+    },
     /// The output directory could not be created.
     #[error("cannot create directory {path}: {source}")]
     CreateDir {

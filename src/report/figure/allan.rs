@@ -224,6 +224,8 @@ impl<'a> Panels<'a> {
                 .flat_map(|(_, m)| m.total.iter().map(|p| p.1).filter(|&d| d > 0.0)),
         );
         let (dev_lo, dev_hi) = min_max(all_dev).unwrap_or((1.0, 10.0));
+        check_log_span(FIGURE, "tau", tau_lo, tau_hi)?;
+        check_log_span(FIGURE, "dev", dev_lo, dev_hi)?;
         let z_max = min_max(
             models
                 .iter()
@@ -237,9 +239,10 @@ impl<'a> Panels<'a> {
             measured,
             models,
             term_names,
-            tau_range: decade_range(tau_lo, tau_hi),
-            dev_range: decade_range(dev_lo, dev_hi),
-            z_bound: (z_max * 1.1).max(4.0),
+            tau_range: log_range(tau_lo, tau_hi, 1.25),
+            dev_range: log_range(dev_lo, dev_hi, 1.25),
+            // Capped so that ±∞ can never reach the axis (z is finite, but 1.1·f64::MAX is not).
+            z_bound: (z_max.min(1e300) * 1.1).max(4.0),
         })
     }
 

@@ -286,7 +286,39 @@ fn text(size: u32) -> TextStyle<'static> {
     (FONT, size).into_font().color(&BLACK)
 }
 
-/// The enclosing whole decades of `lo..hi` (both > 0), so every log axis shows labelled decades.
+/// The most decades one logarithmic axis may span. Allan plots of real IMUs span under 10; the
+/// bound stops nonsense input (1e-300 next to 1e300) before plotters tries to tick it.
+pub const MAX_DECADES: u32 = 40;
+
+/// Checks that `lo..hi` (both > 0) fits on one log axis.
+fn check_log_span(figure: &'static str, field: &str, lo: f64, hi: f64) -> Result<(), ReportError> {
+    if (hi / lo).log10() > f64::from(MAX_DECADES) || !(hi / lo).is_finite() {
+        return Err(ReportError::RangeTooWide {
+            figure,
+            field: field.to_string(),
+            low: lo,
+            high: hi,
+            max_decades: MAX_DECADES,
+        });
+    }
+    Ok(())
+}
+
+/// A log-axis range for data spanning `lo..hi` (both > 0) that shows labelled decades.
+///
+/// The data's range widened by `pad` (a factor, e.g. 1.25) when that already contains two decade
+/// ticks; otherwise the enclosing whole decades, so that every log axis carries at least two
+/// labelled decades and no axis wastes most of a decade on empty space.
+fn log_range(lo: f64, hi: f64, pad: f64) -> std::ops::Range<f64> {
+    let (plo, phi) = (lo / pad, hi * pad);
+    if phi.log10().floor() - plo.log10().ceil() >= 1.0 {
+        plo..phi
+    } else {
+        decade_range(lo, hi)
+    }
+}
+
+/// The enclosing whole decades of `lo..hi` (both > 0).
 fn decade_range(lo: f64, hi: f64) -> std::ops::Range<f64> {
     let lo_exp = lo.log10().floor();
     let mut hi_exp = hi.log10().ceil();
@@ -505,6 +537,18 @@ mod tests {
         assert_eq!(decade_label(&1.0), "1");
         assert_eq!(decade_label(&1e12), "10¹²");
         assert_eq!(decade_label(&3e-3), "");
+    }
+
+    #[test]
+    fn log_range_is_tight_when_two_decades_show() {
+        let r = log_range(0.02, 800.0, 1.25);
+        assert!((r.start - 0.016).abs() < 1e-12 && (r.end - 1000.0).abs() < 1e-9);
+        // 2e-5..3e-3 holds 1e-4 and 1e-3: tight.
+        let r = log_range(2e-5, 3e-3, 1.25);
+        assert!((r.start - 1.6e-5).abs() < 1e-18);
+        // 2e-5..5e-4 holds only 1e-4: whole decades.
+        let r = log_range(2e-5, 5e-4, 1.25);
+        assert!((r.start - 1e-5).abs() < 1e-20 && (r.end - 1e-3).abs() < 1e-15);
     }
 
     #[test]

@@ -67,6 +67,7 @@ impl<'a> Heatmap<'a> {
         check_increasing(FIGURE, "times", &s.times)?;
         check_increasing(FIGURE, "taus", &s.taus)?;
         check_positive(FIGURE, "taus", s.taus.iter().copied())?;
+        check_log_span(FIGURE, "taus", s.taus[0], s.taus[s.taus.len() - 1])?;
         check_len(FIGURE, "dev", s.dev.len(), "times", s.times.len())?;
         for (i, row) in s.dev.iter().enumerate() {
             let field = format!("dev[{i}]");
@@ -80,6 +81,7 @@ impl<'a> Heatmap<'a> {
                 field: "dev (every value is NaN)".into(),
             });
         };
+        check_log_span(FIGURE, "dev", lo, hi)?;
         let log_range = if hi > lo {
             (lo.log10(), hi.log10())
         } else {
@@ -146,12 +148,8 @@ impl Figure for Heatmap<'_> {
 
         let t_range = self.t_edges[0]..self.t_edges[self.t_edges.len() - 1];
         let (tau_lo, tau_hi) = (self.tau_edges[0], self.tau_edges[self.tau_edges.len() - 1]);
-        // The cells fill the plot; widen to whole decades only if no decade would be labelled.
-        let tau_range = if tau_hi.log10().floor() >= tau_lo.log10().ceil() {
-            tau_lo..tau_hi
-        } else {
-            decade_range(tau_lo, tau_hi)
-        };
+        // The cells fill the plot unless that would leave fewer than two decades labelled.
+        let tau_range = log_range(tau_lo, tau_hi, 1.0);
         let mut chart = ChartBuilder::on(&main)
             .margin(10)
             .x_label_area_size(45)

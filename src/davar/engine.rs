@@ -282,7 +282,11 @@ impl DavarEngine {
         for k in self.base..self.n {
             let (slot, next) = (self.slot(k), self.slot(k + 1));
             let y = self.raw[slot];
-            let (z, ok) = if y.is_finite() { (y - reference, 1) } else { (0.0, 0) };
+            let (z, ok) = if y.is_finite() {
+                (y - reference, 1)
+            } else {
+                (0.0, 0)
+            };
             self.sum1[next] = self.sum1[slot] + z;
             self.sum2[next] = self.sum2[slot] + z * z;
             self.valid[next] = self.valid[slot] + ok;

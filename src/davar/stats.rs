@@ -55,7 +55,8 @@ pub fn edf_overlapping(m: usize, terms: usize) -> f64 {
 pub fn edf_closed_form(m: usize, terms: usize) -> f64 {
     let m = m.max(1) as f64;
     let n = terms as f64 + 2.0 * m;
-    let raw = (3.0 * (n - 1.0) / (2.0 * m) - 2.0 * (n - 2.0) / n) * 4.0 * m * m / (4.0 * m * m + 5.0);
+    let raw =
+        (3.0 * (n - 1.0) / (2.0 * m) - 2.0 * (n - 2.0) / n) * 4.0 * m * m / (4.0 * m * m + 5.0);
     raw.max(1.0)
 }
 

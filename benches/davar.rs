@@ -9,7 +9,9 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use fdavar::allan::TauGrid;
-use fdavar::davar::{DavarEngine, EngineConfig, FTarget, FixedWindow, SigmaRef, SignPolicy, WindowPolicy};
+use fdavar::davar::{
+    DavarEngine, EngineConfig, FTarget, FixedWindow, SigmaRef, SignPolicy, WindowPolicy,
+};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
@@ -18,7 +20,9 @@ const BLOCK: usize = 20_000;
 
 fn data(len: usize) -> Vec<f64> {
     let mut rng = ChaCha8Rng::seed_from_u64(1);
-    (0..len).map(|_| 0.01 + 0.002 * rng.sample::<f64, _>(StandardNormal)).collect()
+    (0..len)
+        .map(|_| 0.01 + 0.002 * rng.sample::<f64, _>(StandardNormal))
+        .collect()
 }
 
 fn warmed(factors: Vec<usize>, policy: Box<dyn WindowPolicy>, warm: &[f64]) -> DavarEngine {
@@ -26,7 +30,10 @@ fn warmed(factors: Vec<usize>, policy: Box<dyn WindowPolicy>, warm: &[f64]) -> D
         factors,
         tau0: 0.005,
         sigma_ref: SigmaRef::Running,
-        f_target: FTarget::Auto { band_z: 2.0, warmup_rows: 500 },
+        f_target: FTarget::Auto {
+            band_z: 2.0,
+            warmup_rows: 500,
+        },
     };
     let mut engine = DavarEngine::new(config, policy).expect("valid bench config");
     let mut rows = Vec::new();

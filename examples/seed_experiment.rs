@@ -56,10 +56,16 @@ fn analyse(data: &[f64], setup: &Setup) -> (Option<ChangeEvent>, usize, (usize, 
     };
     let mut engine = DavarEngine::new(config, (setup.policy)()).expect("valid setup");
     let mut detector = ChangeDetector::new(DetectorConfig {
-        z: std::env::var("SEED_EXPERIMENT_Z").ok().and_then(|z| z.parse().ok()).unwrap_or(4.0),
+        z: std::env::var("SEED_EXPERIMENT_Z")
+            .ok()
+            .and_then(|z| z.parse().ok())
+            .unwrap_or(4.0),
         warmup_rows: WARMUP,
         min_rows: 10,
-        merge_rows: std::env::var("SEED_EXPERIMENT_MERGE").ok().and_then(|z| z.parse().ok()).unwrap_or(100),
+        merge_rows: std::env::var("SEED_EXPERIMENT_MERGE")
+            .ok()
+            .and_then(|z| z.parse().ok())
+            .unwrap_or(100),
     });
     let time_of = |i: u64| i as f64 * TAU0;
     let mut rows = Vec::new();
@@ -75,8 +81,10 @@ fn analyse(data: &[f64], setup: &Setup) -> (Option<ChangeEvent>, usize, (usize, 
         }
     }
     events.extend(detector.finish());
-    let overlaps = |e: &ChangeEvent| e.start_index < END as u64 && e.end_index + 1 >= ONSET as u64
-        || e.first_row_index < END as u64 && e.last_row_index >= ONSET as u64;
+    let overlaps = |e: &ChangeEvent| {
+        e.start_index < END as u64 && e.end_index + 1 >= ONSET as u64
+            || e.first_row_index < END as u64 && e.last_row_index >= ONSET as u64
+    };
     let best = events
         .iter()
         .filter(|e| overlaps(e))
@@ -84,7 +92,15 @@ fn analyse(data: &[f64], setup: &Setup) -> (Option<ChangeEvent>, usize, (usize, 
         .cloned();
     let false_events = events.iter().filter(|e| !overlaps(e)).count();
     if std::env::var_os("SEED_EXPERIMENT_VERBOSE").is_some() {
-        let blocks: Vec<String> = data.chunks(150).map(|c| format!("{:.2}", c.iter().map(|v| v * v).sum::<f64>() / c.len() as f64)).collect();
+        let blocks: Vec<String> = data
+            .chunks(150)
+            .map(|c| {
+                format!(
+                    "{:.2}",
+                    c.iter().map(|v| v * v).sum::<f64>() / c.len() as f64
+                )
+            })
+            .collect();
         eprintln!("block variances: {}", blocks.join(" "));
         eprintln!("level {:?}", detector.level());
         for e in &events {
@@ -127,18 +143,45 @@ fn main() {
         warmup_rows: WARMUP,
     };
     let setups = [
-        Setup { name: "fixed 171", policy: || Box::new(FixedWindow::new(171)), f_target: auto },
-        Setup { name: "fixed 501", policy: || Box::new(FixedWindow::new(501)), f_target: auto },
-        Setup { name: "sign, F~ auto", policy: || Box::new(SignPolicy::new(171, 501, 4)), f_target: auto },
-        Setup { name: "proportional, F~ auto", policy: || Box::new(ProportionalPolicy::new(171, 501, 4, 32)), f_target: auto },
-        Setup { name: "sign, F~ 3.3 (seed)", policy: || Box::new(SignPolicy::new(171, 501, 4)), f_target: FTarget::Value(3.3) },
+        Setup {
+            name: "fixed 171",
+            policy: || Box::new(FixedWindow::new(171)),
+            f_target: auto,
+        },
+        Setup {
+            name: "fixed 501",
+            policy: || Box::new(FixedWindow::new(501)),
+            f_target: auto,
+        },
+        Setup {
+            name: "sign, F~ auto",
+            policy: || Box::new(SignPolicy::new(171, 501, 4)),
+            f_target: auto,
+        },
+        Setup {
+            name: "proportional, F~ auto",
+            policy: || Box::new(ProportionalPolicy::new(171, 501, 4, 32)),
+            f_target: auto,
+        },
+        Setup {
+            name: "sign, F~ 3.3 (seed)",
+            policy: || Box::new(SignPolicy::new(171, 501, 4)),
+            f_target: FTarget::Value(3.3),
+        },
     ];
     println!("F-DAVAR change points: {N} samples, tau0 {TAU0} s, noise sd x3 from {ONSET} to {END}; {seeds} seeds");
     println!("sigma^2_ref = whole record; detector: z = {z}, warm-up {WARMUP} rows, min 10 rows, merge {merge} rows");
     println!("median [p25, p75] over the seeds that detected the change; seed's Table 1: 171 -> 1050/2450, 501 -> 968/2640, adaptive -> 1150/2380\n");
     println!(
         "{:<24}{:>9}{:>20}{:>20}{:>20}{:>20}{:>8}{:>11}",
-        "policy", "detected", "onset (edge)", "end (edge)", "onset (row)", "end (row)", "false", "window"
+        "policy",
+        "detected",
+        "onset (edge)",
+        "end (edge)",
+        "onset (row)",
+        "end (row)",
+        "false",
+        "window"
     );
     for setup in &setups {
         let (mut on_e, mut end_e, mut on_r, mut end_r) = (vec![], vec![], vec![], vec![]);

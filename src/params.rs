@@ -526,7 +526,11 @@ pub fn config_from_params(
             warmup_rows: int("f_auto.warmup_rows")?,
         },
         number => FTarget::Value(number.parse().map_err(|_| {
-            invalid("f_target", number.to_string(), "must be auto or a positive number")
+            invalid(
+                "f_target",
+                number.to_string(),
+                "must be auto or a positive number",
+            )
         })?),
     };
     let sigma_ref = match text("sigma_ref.mode")?.as_str() {
@@ -587,7 +591,14 @@ mod tests {
             p.check(&p.default_value()).unwrap();
         }
         let d = DavarConfig::default();
-        assert_eq!(d.policy, PolicyConfig::Sign { min: 171, max: 501, step: 4 });
+        assert_eq!(
+            d.policy,
+            PolicyConfig::Sign {
+                min: 171,
+                max: 501,
+                step: 4
+            }
+        );
         assert_eq!(d.sigma_ref, SigmaRefMode::Running);
     }
 
@@ -597,7 +608,15 @@ mod tests {
         let b = from_yaml_str("/**:\n  ros__parameters:\n    window.policy: proportional\n    window.min: 11\n    window.max: 51\n    f_target: \"3.3\"\n").unwrap();
         assert_eq!(a, b);
         assert_eq!(a.f_target, FTarget::Value(3.3));
-        assert_eq!(a.policy, PolicyConfig::Proportional { min: 11, max: 51, step: 4, max_step: 32 });
+        assert_eq!(
+            a.policy,
+            PolicyConfig::Proportional {
+                min: 11,
+                max: 51,
+                step: 4,
+                max_step: 32
+            }
+        );
     }
 
     #[test]
@@ -613,15 +632,28 @@ mod tests {
         assert!(msg("    window: {min: fast}\n").contains("must be an integer"));
         assert!(msg("    sigma_ref: {mode: value}\n").contains("sigma_ref.value"));
         assert!(msg("    taus: many\n").contains("taus"));
-        assert!(matches!(from_yaml_str("other:\n  ros__parameters: {}\n"), Err(ParamsError::NoSection)));
-        assert!(matches!(from_yaml_str("fdavar: [1"), Err(ParamsError::Yaml(_))));
+        assert!(matches!(
+            from_yaml_str("other:\n  ros__parameters: {}\n"),
+            Err(ParamsError::NoSection)
+        ));
+        assert!(matches!(
+            from_yaml_str("fdavar: [1"),
+            Err(ParamsError::Yaml(_))
+        ));
     }
 
     #[test]
     fn launch_files_parse() {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("launch_params");
         let seed = load(&root.join("seed_2016.yaml")).unwrap();
-        assert_eq!(seed.policy, PolicyConfig::Sign { min: 171, max: 501, step: 4 });
+        assert_eq!(
+            seed.policy,
+            PolicyConfig::Sign {
+                min: 171,
+                max: 501,
+                step: 4
+            }
+        );
         assert_eq!(seed.f_target, FTarget::Value(3.3));
         assert_eq!(seed.tau0, Some(0.03));
         assert_eq!(seed.sigma_ref, SigmaRefMode::Record);

@@ -19,7 +19,9 @@ use crate::davar::{
     DetectorConfig, EngineConfig, FTarget, FixedWindow, ProportionalPolicy, SigmaRef, SignPolicy,
     WindowPolicy,
 };
-use crate::signal::{nominal_period, Axis, ImuSample, Irregularities, PeriodEstimator, StampCheck, StampClass};
+use crate::signal::{
+    nominal_period, Axis, ImuSample, Irregularities, PeriodEstimator, StampCheck, StampClass,
+};
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 
@@ -367,7 +369,12 @@ impl Pipeline {
     pub fn excluded_terms(&self) -> Vec<(Axis, u64)> {
         self.running
             .as_ref()
-            .map(|r| r.axes.iter().map(|a| (a.axis, a.engine.excluded_terms())).collect())
+            .map(|r| {
+                r.axes
+                    .iter()
+                    .map(|a| (a.axis, a.engine.excluded_terms()))
+                    .collect()
+            })
             .unwrap_or_default()
     }
 
@@ -377,7 +384,10 @@ impl Pipeline {
             r.push(sample, out);
             return;
         }
-        let tau0 = self.config.tau0.or_else(|| self.period.push(sample.stamp_ns));
+        let tau0 = self
+            .config
+            .tau0
+            .or_else(|| self.period.push(sample.stamp_ns));
         self.held.push(*sample);
         if let Some(tau0) = tau0 {
             self.start(tau0, out);
@@ -397,7 +407,10 @@ impl Pipeline {
         if let Some(r) = &mut self.running {
             for a in &mut r.axes {
                 if let Some(event) = a.detector.finish() {
-                    out.events.push(AxisEvent { axis: a.axis, event });
+                    out.events.push(AxisEvent {
+                        axis: a.axis,
+                        event,
+                    });
                 }
             }
         }
@@ -492,7 +505,19 @@ mod tests {
 
     #[test]
     fn same_input_same_output_whatever_the_chunking() {
-        let samples: Vec<ImuSample> = (0..400).map(|k| sample(k, 1_000 + k * 5_000_000, if (200..260).contains(&k) { 5.0 * ((k % 3) as f64 - 1.0) } else { 0.0 })).collect();
+        let samples: Vec<ImuSample> = (0..400)
+            .map(|k| {
+                sample(
+                    k,
+                    1_000 + k * 5_000_000,
+                    if (200..260).contains(&k) {
+                        5.0 * ((k % 3) as f64 - 1.0)
+                    } else {
+                        0.0
+                    },
+                )
+            })
+            .collect();
         let run = |chunk: usize| {
             let mut p = Pipeline::new(config(), &[Axis::GyroX], None).unwrap();
             let mut all = Output::default();

@@ -96,14 +96,26 @@ fn check_row(row: &DavarRow, data: &[f64], first: u64) {
         let (want, terms) = oracle_avar(cut, p.m).expect("oracle has a value where the engine has");
         assert_eq!(p.terms, terms, "row {} m {}", row.index, p.m);
         let rel = (p.avar - want).abs() / want.abs().max(f64::MIN_POSITIVE);
-        assert!(rel <= REL, "row {} W {} m {}: {} vs {} (rel {rel:e})", row.index, row.window, p.m, p.avar, want);
+        assert!(
+            rel <= REL,
+            "row {} W {} m {}: {} vs {} (rel {rel:e})",
+            row.index,
+            row.window,
+            p.m,
+            p.avar,
+            want
+        );
         assert!(p.ci_low <= p.avar && p.avar <= p.ci_high);
     }
     let valid: Vec<f64> = cut.iter().copied().filter(|v| v.is_finite()).collect();
     assert_eq!(row.valid_samples, valid.len());
     let mean = valid.iter().sum::<f64>() / valid.len() as f64;
     let var = valid.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / valid.len() as f64;
-    assert!((row.variance - var).abs() <= 1e-9 * var.max(1e-300), "variance {} vs {var}", row.variance);
+    assert!(
+        (row.variance - var).abs() <= 1e-9 * var.max(1e-300),
+        "variance {} vs {var}",
+        row.variance
+    );
     if let (Some(f), Some(r)) = (row.f, row.sigma2_ref) {
         assert!((f - row.variance / r).abs() <= 1e-12 * f.abs());
     }
@@ -121,7 +133,11 @@ fn signal(seed: u64, len: usize, invalid_rate: f64) -> Vec<f64> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     (0..len)
         .map(|k| {
-            let level = if (len / 3..2 * len / 3).contains(&k) { 3.0 } else { 1.0 };
+            let level = if (len / 3..2 * len / 3).contains(&k) {
+                3.0
+            } else {
+                1.0
+            };
             let noise: f64 = rng.sample(StandardNormal);
             if rng.random::<f64>() < invalid_rate {
                 f64::NAN
@@ -183,7 +199,11 @@ proptest! {
 /// 10000, rows still equal a from-scratch computation on their cut.
 #[test]
 fn no_drift_after_ten_million_samples_with_a_drifting_bias() {
-    let total: u64 = if cfg!(debug_assertions) { 1_000_000 } else { 10_000_000 };
+    let total: u64 = if cfg!(debug_assertions) {
+        1_000_000
+    } else {
+        10_000_000
+    };
     let keep = 6000usize;
     let mut rng = ChaCha8Rng::seed_from_u64(24);
     let mut engine = DavarEngine::new(
@@ -220,7 +240,11 @@ fn invalid_samples_are_left_out_and_counted_never_panic() {
     data[100] = f64::NAN;
     data[101] = f64::INFINITY;
     data[350] = f64::NEG_INFINITY;
-    let mut engine = DavarEngine::new(config(61, SigmaRef::Running, FTarget::Value(1.0)), Box::new(FixedWindow::new(61))).unwrap();
+    let mut engine = DavarEngine::new(
+        config(61, SigmaRef::Running, FTarget::Value(1.0)),
+        Box::new(FixedWindow::new(61)),
+    )
+    .unwrap();
     let rows = run(&mut engine, &data);
     assert_eq!(rows.len(), 600 - 61 + 1);
     let hit = rows.iter().find(|r| r.index == 110).unwrap();
@@ -236,7 +260,13 @@ fn invalid_samples_are_left_out_and_counted_never_panic() {
 #[test]
 fn long_gap_is_skipped_like_pushing_each_marker() {
     let data = signal(5, 400, 0.0);
-    let make = || DavarEngine::new(config(61, SigmaRef::Running, FTarget::Value(1.0)), Box::new(SignPolicy::new(21, 61, 4))).unwrap();
+    let make = || {
+        DavarEngine::new(
+            config(61, SigmaRef::Running, FTarget::Value(1.0)),
+            Box::new(SignPolicy::new(21, 61, 4)),
+        )
+        .unwrap()
+    };
     let (mut a, mut b) = (make(), make());
     let (mut ra, mut rb) = (Vec::new(), Vec::new());
     for &y in &data[..200] {
@@ -253,7 +283,10 @@ fn long_gap_is_skipped_like_pushing_each_marker() {
     }
     assert_eq!(ra.len(), rb.len());
     for (x, y) in ra.iter().zip(&rb) {
-        assert_eq!((x.index, x.window, x.valid_samples), (y.index, y.window, y.valid_samples));
+        assert_eq!(
+            (x.index, x.window, x.valid_samples),
+            (y.index, y.window, y.valid_samples)
+        );
         for (p, q) in x.points.iter().zip(&y.points) {
             assert!((p.avar - q.avar).abs() <= 1e-9 * q.avar);
         }
@@ -264,7 +297,11 @@ fn long_gap_is_skipped_like_pushing_each_marker() {
 fn a_window_never_reaches_before_the_first_sample() {
     let data = signal(9, 800, 0.0);
     let bounds = WindowBounds { min: 11, max: 301 };
-    let mut engine = DavarEngine::new(config(301, SigmaRef::Running, FTarget::Value(1.0)), Box::new(Growing(bounds))).unwrap();
+    let mut engine = DavarEngine::new(
+        config(301, SigmaRef::Running, FTarget::Value(1.0)),
+        Box::new(Growing(bounds)),
+    )
+    .unwrap();
     let rows = run(&mut engine, &data);
     assert_eq!(rows[0].index, 5);
     assert!(rows.iter().all(|r| r.window <= 2 * r.index as usize + 1));

@@ -22,8 +22,9 @@
 //! from a truncated window.
 
 use super::reference::{FTarget, FTargetTracker, SigmaRef, SigmaRefTracker};
-use super::stats::{IntervalCache, ONE_SIGMA_LOW};
+use super::stats::{IntervalCache, IntervalFactors, ONE_SIGMA_LOW};
 use super::{DavarError, DavarRow, WindowPolicy};
+use crate::allan::AllanPoint;
 
 /// Extra ring slots beyond λ2 (the proof in [`DavarEngine::new`] needs 2).
 const RING_MARGIN: usize = 8;
@@ -64,6 +65,8 @@ pub struct DavarEngine {
     sigma_ref: SigmaRefTracker,
     f_target: FTargetTracker,
     intervals: IntervalCache,
+    /// Per factor: the last (terms, (edf, lo, hi)) looked up; a fixed window hits it every row.
+    last_interval: Vec<Option<(usize, IntervalFactors)>>,
     /// Ring length L.
     len: usize,
     /// Samples pushed so far (the index of the next sample).
@@ -154,6 +157,7 @@ impl DavarEngine {
             sigma_ref: SigmaRefTracker::new(config.sigma_ref),
             f_target: FTargetTracker::new(config.f_target),
             intervals: IntervalCache::new(ONE_SIGMA_LOW),
+            last_interval: vec![None; factors.len()],
             len,
             n: 0,
             base: 0,
@@ -282,7 +286,11 @@ impl DavarEngine {
         for k in self.base..self.n {
             let (slot, next) = (self.slot(k), self.slot(k + 1));
             let y = self.raw[slot];
-            let (z, ok) = if y.is_finite() { (y - reference, 1) } else { (0.0, 0) };
+            let (z, ok) = if y.is_finite() {
+                (y - reference, 1)
+            } else {
+                (0.0, 0)
+            };
             self.sum1[next] = self.sum1[slot] + z;
             self.sum2[next] = self.sum2[slot] + z * z;
             self.valid[next] = self.valid[slot] + ok;
@@ -357,7 +365,23 @@ impl DavarEngine {
             let sum = (self.term_sum[i][end] - self.term_sum[i][a]).max(0.0);
             let mf = m as f64;
             let avar = sum / (2.0 * mf * mf * terms as f64);
-            points.push(self.intervals.point(m, mf * self.tau0, avar, terms));
+            let (edf, lo, hi) = match self.last_interval[i] {
+                Some((t, f)) if t == terms => f,
+                _ => {
+                    let f = self.intervals.factors(m, terms);
+                    self.last_interval[i] = Some((terms, f));
+                    f
+                }
+            };
+            points.push(AllanPoint {
+                m,
+                tau: mf * self.tau0,
+                avar,
+                terms,
+                edf,
+                ci_low: avar * lo,
+                ci_high: avar * hi,
+            });
         }
         self.excluded_total += excluded as u64;
         Some(DavarRow {

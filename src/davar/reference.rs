@@ -149,7 +149,10 @@ impl FTargetTracker {
     pub(crate) fn target(&self, valid: usize) -> Option<f64> {
         match self.mode {
             FTarget::Value(v) => Some(v),
-            FTarget::Auto { band_z, warmup_rows } => {
+            FTarget::Auto {
+                band_z,
+                warmup_rows,
+            } => {
                 if self.level.count() < warmup_rows as u64 {
                     return None;
                 }
@@ -161,7 +164,11 @@ impl FTargetTracker {
 
     /// Learns from the F of one row (auto mode only; gated to steady rows after the warm-up).
     pub(crate) fn observe(&mut self, f: f64, valid: usize) {
-        let FTarget::Auto { band_z, warmup_rows } = self.mode else {
+        let FTarget::Auto {
+            band_z,
+            warmup_rows,
+        } = self.mode
+        else {
             return;
         };
         if !(f > 0.0 && f.is_finite()) {
@@ -229,7 +236,8 @@ impl RobustLevel {
         }
         let anchor = *self.anchor.get_or_insert(value.ln());
         let offset = ((value.ln() - anchor) / LEVEL_BIN).round();
-        let bin = (offset + LEVEL_HALF_BINS as f64).clamp(0.0, (2 * LEVEL_HALF_BINS) as f64) as usize;
+        let bin =
+            (offset + LEVEL_HALF_BINS as f64).clamp(0.0, (2 * LEVEL_HALF_BINS) as f64) as usize;
         self.counts[bin] += 1;
         self.total += 1;
         if bin < self.at {
@@ -298,10 +306,17 @@ mod tests {
             base.observe(y);
             fixed.observe(y);
             let sofar = record_variance(&data[..=i]);
-            assert_eq!(running.current().map(|v| (v * 1e12).round()), sofar.map(|v| (v * 1e12).round()));
+            assert_eq!(
+                running.current().map(|v| (v * 1e12).round()),
+                sofar.map(|v| (v * 1e12).round())
+            );
             assert_eq!(fixed.current(), Some(2.5));
         }
-        assert_eq!(base.current(), Some(1.0), "frozen after the first four samples");
+        assert_eq!(
+            base.current(),
+            Some(1.0),
+            "frozen after the first four samples"
+        );
         assert!(running.current().unwrap() > 20.0);
     }
 
@@ -317,11 +332,21 @@ mod tests {
         assert_eq!(t.target(201), None, "still warming up");
         t.observe(0.5, 201);
         let target = t.target(201).unwrap();
-        assert!((target / (0.5 * (1.0 + 2.0 * 0.1)) - 1.0).abs() < 0.01, "{target}");
+        assert!(
+            (target / (0.5 * (1.0 + 2.0 * 0.1)) - 1.0).abs() < 0.01,
+            "{target}"
+        );
         for _ in 0..100 {
             t.observe(5.0, 201);
         }
-        assert_eq!(t.target(201).unwrap(), target, "a change does not move the steady level");
-        assert_eq!(FTargetTracker::new(FTarget::Value(3.3)).target(2), Some(3.3));
+        assert_eq!(
+            t.target(201).unwrap(),
+            target,
+            "a change does not move the steady level"
+        );
+        assert_eq!(
+            FTargetTracker::new(FTarget::Value(3.3)).target(2),
+            Some(3.3)
+        );
     }
 }

@@ -260,7 +260,11 @@ fn write_summary(w: &mut impl Write, p: &Pipeline, out: &Output) -> std::io::Res
                 e.start_index,
                 e.end_index,
                 e.factor,
-                if e.closed { "" } else { " (still open at the end)" }
+                if e.closed {
+                    ""
+                } else {
+                    " (still open at the end)"
+                }
             )?;
         }
     }
@@ -280,7 +284,8 @@ mod tests {
 
     #[test]
     fn flags_parse() {
-        let cli = Cli::try_parse_from(["x", "f.txt", "--rate", "100", "--json", "--every", "10"]).unwrap();
+        let cli = Cli::try_parse_from(["x", "f.txt", "--rate", "100", "--json", "--every", "10"])
+            .unwrap();
         assert_eq!(cli.args.rate, Some(100.0));
         assert!(cli.args.json);
         assert!(Cli::try_parse_from(["x", "f.txt", "--json", "--csv"]).is_err());

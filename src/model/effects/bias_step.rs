@@ -50,7 +50,8 @@ pub(super) static KIND: KindInfo = KindInfo {
 /// let step = BiasStep::new(0.2, 1.5).unwrap();
 /// let ctx = SimContext { dt: 0.1, white_sigma: 0.0, temperature_c: None, accel: None };
 /// let mut y = [0.0; 4];
-/// step.simulate(&ctx, &mut rand::rngs::mock::StepRng::new(0, 0), &mut y);
+/// let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(0);
+/// step.simulate(&ctx, &mut rng, &mut y);
 /// assert_eq!(y, [0.0, 0.0, 1.5, 1.5]);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -130,3 +130,47 @@ impl Effect for GaussMarkov {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    #[test]
+    fn simulation_is_the_stationary_ar1() {
+        // Variance σ² from the first sample on, lag-1 correlation φ = e^(−τ0/T). Over 400 seeds of
+        // 200 samples, the mean of b[0]² is σ² within 4 standard errors (√(2/400)·σ²), and the
+        // pooled lag-1 correlation (mean known to be 0) is φ within 4·√((1 − φ²)/n).
+        let (sigma, t, dt) = (2.0, 0.5, 0.01);
+        let gm = GaussMarkov::new(sigma, t).unwrap();
+        let ctx = SimContext {
+            dt,
+            white_sigma: 0.0,
+            temperature_c: None,
+            accel: None,
+        };
+        let seeds = 400;
+        let (mut first_sq, mut sxy, mut sxx, mut pairs) = (0.0, 0.0, 0.0, 0.0_f64);
+        for s in 0..seeds {
+            let mut b = vec![0.0; 200];
+            gm.simulate(&ctx, &mut rand_chacha::ChaCha8Rng::seed_from_u64(s), &mut b);
+            first_sq += b[0] * b[0] / seeds as f64;
+            for w in b.windows(2) {
+                sxy += w[0] * w[1];
+                sxx += w[0] * w[0];
+                pairs += 1.0;
+            }
+        }
+        let var_se = (2.0 / seeds as f64).sqrt() * sigma * sigma;
+        assert!(
+            (first_sq - sigma * sigma).abs() < 4.0 * var_se,
+            "{first_sq}"
+        );
+        let phi = (-dt / t).exp();
+        let rho = sxy / sxx;
+        assert!(
+            (rho - phi).abs() < 4.0 * ((1.0 - phi * phi) / pairs).sqrt(),
+            "{rho} vs {phi}"
+        );
+    }
+}

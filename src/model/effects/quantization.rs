@@ -114,3 +114,41 @@ impl Effect for Quantization {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::effects::std_normal;
+    use rand::SeedableRng;
+
+    #[test]
+    fn output_is_whole_lsbs_and_the_angle_error_stays_within_half_a_step() {
+        // The defining property, exactly: every output is a multiple of Δ, and the reported angle
+        // Σ y_out·τ0 never differs from the true angle Σ y·τ0 by more than δ/2 = Δ·τ0/2.
+        let dt = 0.005;
+        let q = Quantization::new(3e-5).unwrap();
+        let lsb = q.lsb(dt);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let y: Vec<f64> = (0..5000)
+            .map(|_| 0.7 * lsb * std_normal(&mut rng) + 0.1)
+            .collect();
+        let mut out = y.clone();
+        let ctx = SimContext {
+            dt,
+            white_sigma: 0.0,
+            temperature_c: None,
+            accel: None,
+        };
+        q.simulate(&ctx, &mut rng, &mut out);
+        let (mut truth, mut reported) = (0.0, 0.0);
+        for (a, b) in y.iter().zip(&out) {
+            assert!(
+                (b / lsb - (b / lsb).round()).abs() < 1e-9,
+                "{b} is not whole LSBs"
+            );
+            truth += a * dt;
+            reported += b * dt;
+            assert!((truth - reported).abs() <= 0.5 * lsb * dt * (1.0 + 1e-9));
+        }
+    }
+}

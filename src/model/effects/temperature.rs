@@ -46,7 +46,8 @@ pub(super) static KIND: KindInfo = KindInfo {
 /// let temps = [20.0, 21.0, 25.0];
 /// let ctx = SimContext { dt: 1.0, white_sigma: 0.0, temperature_c: Some(&temps), accel: None };
 /// let mut y = [0.0; 3];
-/// t.simulate(&ctx, &mut rand::rngs::mock::StepRng::new(0, 0), &mut y);
+/// let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(0);
+/// t.simulate(&ctx, &mut rng, &mut y);
 /// assert!((y[2] - 0.05).abs() < 1e-15);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]

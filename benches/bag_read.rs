@@ -99,6 +99,7 @@ fn main() {
 
     let t = Instant::now();
     let bag = BagReader::open(&path).expect("open");
+    let open_s = t.elapsed().as_secs_f64();
     let topic = bag.imu_topic(None).expect("imu topic").name.clone();
     let mut count = 0u64;
     let mut checksum = 0.0;
@@ -119,7 +120,7 @@ fn main() {
         bytes as f64 / 1e6
     );
     println!(
-        "  read end to end: {read_s:.3} s, {:.0} messages/s (checksum {checksum:.6e})",
+        "  read end to end: {read_s:.3} s (open: {open_s:.3} s), {:.0} messages/s (checksum {checksum:.6e})",
         count as f64 / read_s
     );
     match (rss_before, peak_rss_mb()) {

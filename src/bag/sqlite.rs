@@ -41,22 +41,42 @@ pub(crate) fn summarize(file: &BagFile) -> Result<FileSummary, BagError> {
     }
     let path = &file.path;
     let conn = connect(path)?;
+    // One pass over `messages` for every topic's count (a join per topic would scan once per
+    // topic); topics without messages are listed with 0.
+    let mut counts: Vec<(i64, u64)> = Vec::new();
     let mut stmt = conn
-        .prepare(
-            "SELECT t.name, t.type, COUNT(m.topic_id) FROM topics t \
-             LEFT JOIN messages m ON m.topic_id = t.id GROUP BY t.id ORDER BY t.id",
-        )
+        .prepare("SELECT topic_id, COUNT(*) FROM messages GROUP BY topic_id")
         .map_err(corrupt(path))?;
-    let topics = stmt
+    let rows = stmt
         .query_map([], |row| {
-            Ok(TopicInfo {
-                name: row.get(0)?,
-                type_name: row.get(1)?,
-                message_count: row.get::<_, i64>(2)? as u64,
-            })
+            Ok((row.get::<_, i64>(0)?, row.get::<_, i64>(1)? as u64))
         })
-        .and_then(|rows| rows.collect::<Result<Vec<_>, _>>())
         .map_err(corrupt(path))?;
+    for row in rows {
+        counts.push(row.map_err(corrupt(path))?);
+    }
+    let mut stmt = conn
+        .prepare("SELECT id, name, type FROM topics ORDER BY id")
+        .map_err(corrupt(path))?;
+    let rows = stmt
+        .query_map([], |row| {
+            Ok((
+                row.get::<_, i64>(0)?,
+                row.get::<_, String>(1)?,
+                row.get::<_, String>(2)?,
+            ))
+        })
+        .map_err(corrupt(path))?;
+    let mut topics = Vec::new();
+    for row in rows {
+        let (id, name, type_name) = row.map_err(corrupt(path))?;
+        let message_count = counts.iter().find(|(t, _)| *t == id).map_or(0, |(_, n)| *n);
+        topics.push(TopicInfo {
+            name,
+            type_name,
+            message_count,
+        });
+    }
     let span = conn
         .query_row(
             "SELECT MIN(timestamp), MAX(timestamp) FROM messages",

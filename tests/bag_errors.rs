@@ -371,3 +371,15 @@ fn topic_type_conflict() {
     let err = w.write_temperature("/x", 2, &t, "x").unwrap_err();
     assert!(matches!(err, BagError::TopicTypeConflict { .. }), "{err:?}");
 }
+
+#[test]
+fn empty_bag_opens_and_says_it_holds_no_imu() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("empty_bag");
+    BagWriter::create(&path).unwrap().finish().unwrap();
+    let bag = BagReader::open(&path).unwrap();
+    assert!(bag.topics().is_empty());
+    assert_eq!(bag.time_span_ns(), None);
+    let err = bag.imu_topic(None).unwrap_err().to_string();
+    assert!(err.ends_with("holds no sensor_msgs/msg/Imu; topics: none"), "{err}");
+}

@@ -16,8 +16,13 @@ use rusqlite::{Connection, OpenFlags};
 use std::path::Path;
 use std::sync::mpsc;
 
-/// Rows in flight between the query thread and the reader.
-const CHANNEL_ROWS: usize = 1024;
+/// Rows handed over at once: one channel operation per batch, not per row.
+const BATCH_ROWS: usize = 256;
+/// Batches in flight between the query thread and the reader (memory ≈ 4 × 256 messages).
+const CHANNEL_BATCHES: usize = 4;
+
+/// What the query thread sends: a batch of rows, or the error that ended the query.
+type Batch = Result<Vec<RawMessage>, BagError>;
 
 fn corrupt(path: &Path) -> impl Fn(rusqlite::Error) -> BagError + '_ {
     move |e| BagError::CorruptSqlite {
@@ -112,7 +117,7 @@ pub(crate) fn stream(file: &BagFile, wanted: &[(String, Role)]) -> Result<RawStr
             ids.push((id, *role));
         }
     }
-    let (tx, rx) = mpsc::sync_channel(CHANNEL_ROWS);
+    let (tx, rx) = mpsc::sync_channel::<Batch>(CHANNEL_BATCHES);
     std::thread::Builder::new()
         .name("fdavar-db3".into())
         .spawn(move || {
@@ -122,14 +127,17 @@ pub(crate) fn stream(file: &BagFile, wanted: &[(String, Role)]) -> Result<RawStr
             }
         })
         .map_err(BagError::io(&file.path))?;
-    Ok(Box::new(rx.into_iter()))
+    Ok(Box::new(rx.into_iter().flat_map(|batch| match batch {
+        Ok(rows) => rows.into_iter().map(Ok).collect::<Vec<_>>(),
+        Err(e) => vec![Err(e)],
+    })))
 }
 
 /// Runs the one ordered query and sends each row; returns early when the receiver is dropped.
 fn query_rows(
     conn: &Connection,
     ids: &[(i64, Role)],
-    tx: &mpsc::SyncSender<Result<RawMessage, BagError>>,
+    tx: &mpsc::SyncSender<Batch>,
 ) -> Result<(), rusqlite::Error> {
     if ids.is_empty() {
         return Ok(());
@@ -144,6 +152,7 @@ fn query_rows(
          ORDER BY timestamp, id"
     ))?;
     let mut rows = stmt.query([])?;
+    let mut batch = Vec::with_capacity(BATCH_ROWS);
     while let Some(row) = rows.next()? {
         let topic_id: i64 = row.get(0)?;
         let role = ids.iter().find(|(id, _)| *id == topic_id).map(|(_, r)| *r);
@@ -153,9 +162,16 @@ fn query_rows(
             log_time_ns: row.get(1)?,
             data: row.get(2)?,
         };
-        if tx.send(Ok(message)).is_err() {
-            return Ok(());
+        batch.push(message);
+        if batch.len() == BATCH_ROWS {
+            let full = std::mem::replace(&mut batch, Vec::with_capacity(BATCH_ROWS));
+            if tx.send(Ok(full)).is_err() {
+                return Ok(());
+            }
         }
+    }
+    if !batch.is_empty() {
+        let _ = tx.send(Ok(batch));
     }
     Ok(())
 }

@@ -381,5 +381,29 @@ fn empty_bag_opens_and_says_it_holds_no_imu() {
     assert!(bag.topics().is_empty());
     assert_eq!(bag.time_span_ns(), None);
     let err = bag.imu_topic(None).unwrap_err().to_string();
-    assert!(err.ends_with("holds no sensor_msgs/msg/Imu; topics: none"), "{err}");
+    assert!(
+        err.ends_with("holds no sensor_msgs/msg/Imu; topics: none"),
+        "{err}"
+    );
+}
+
+#[test]
+fn absurd_record_lengths_are_errors_not_aborts() {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = write_bag(dir.path(), "len", ChunkCompression::None, 50);
+    let bytes = std::fs::read(mcap_file(&bag)).unwrap();
+    // The header record follows the 8-byte magic: opcode at 8, u64 length at 9..17.
+    for len in [1u64 << 50, u64::MAX, 1 << 33] {
+        let mut b = bytes.clone();
+        b[9..17].copy_from_slice(&len.to_le_bytes());
+        let file = dir.path().join(format!("len_{len}.mcap"));
+        std::fs::write(&file, b).unwrap();
+        let result = BagReader::open(&file).and_then(|r| {
+            r.messages("/imu", None)?
+                .collect::<Result<Vec<_>, _>>()
+                .map(|_| ())
+        });
+        let err = result.unwrap_err();
+        assert!(err.to_string().contains("len_"), "{err}");
+    }
 }

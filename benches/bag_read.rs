@@ -21,6 +21,18 @@ fn peak_rss_mb() -> Option<f64> {
     Some(kb / 1024.0)
 }
 
+/// CPU time (user + system, all threads) this process has used, seconds, from /proc/self/stat.
+///
+/// Wall time on a shared machine measures the other users too; CPU time does not.
+fn cpu_s() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let fields: Vec<&str> = rest.split_whitespace().collect();
+    let ticks: f64 = fields.get(11)?.parse::<f64>().ok()? + fields.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0)
+}
+
 fn write_recording(path: &Path, n: u64) {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2016);
     let mut w = BagWriter::create(path).expect("create bag");
@@ -97,8 +109,10 @@ fn main() {
     // Reset the high-water mark so that it measures the read alone (Linux ≥ 4.0).
     let reset = std::fs::write("/proc/self/clear_refs", "5").is_ok();
 
+    let cpu_before = cpu_s();
     let t = Instant::now();
     let bag = BagReader::open(&path).expect("open");
+    let open_s = t.elapsed().as_secs_f64();
     let topic = bag.imu_topic(None).expect("imu topic").name.clone();
     let mut count = 0u64;
     let mut checksum = 0.0;
@@ -109,6 +123,7 @@ fn main() {
         }
     }
     let read_s = t.elapsed().as_secs_f64();
+    let read_cpu_s = cpu_before.zip(cpu_s()).map(|(a, b)| b - a);
     assert_eq!(count, n, "messages read");
     let bytes: u64 = bag
         .files()
@@ -119,9 +134,12 @@ fn main() {
         bytes as f64 / 1e6
     );
     println!(
-        "  read end to end: {read_s:.3} s, {:.0} messages/s (checksum {checksum:.6e})",
+        "  read end to end: {read_s:.3} s (open: {open_s:.3} s), {:.0} messages/s (checksum {checksum:.6e})",
         count as f64 / read_s
     );
+    if let Some(cpu) = read_cpu_s {
+        println!("  CPU time of the read (user + system, all threads, 10 ms ticks): {cpu:.2} s");
+    }
     match (rss_before, peak_rss_mb()) {
         (Some(before), Some(after)) => println!(
             "  peak RSS (VmHWM) while reading: {after:.1} MB{} (peak while writing: {before:.1} MB)",

@@ -6,7 +6,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn fdavar(args: &[&std::ffi::OsStr]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fdavar")).args(args).output().expect("run fdavar")
+    Command::new(env!("CARGO_BIN_EXE_fdavar"))
+        .args(args)
+        .output()
+        .expect("run fdavar")
 }
 
 fn info(args: &[&str], bag: &Path) -> Output {
@@ -16,7 +19,10 @@ fn info(args: &[&str], bag: &Path) -> Output {
 }
 
 fn text(o: &Output) -> (String, String) {
-    (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
+    (
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
 }
 
 /// 1000 samples at 100 Hz with one gap (5 missing) and one duplicated stamp.
@@ -30,8 +36,13 @@ fn recording(dir: &Path) -> PathBuf {
             700 => 0,
             _ => 10_000_000,
         };
-        let s = ImuSample { stamp_ns: stamp, gyro: [0.01, 0.0, 0.0], accel: [0.0, 0.0, 9.81] };
-        w.write_imu("/imu/data", stamp + 1_000, &s, "imu_link").unwrap();
+        let s = ImuSample {
+            stamp_ns: stamp,
+            gyro: [0.01, 0.0, 0.0],
+            accel: [0.0, 0.0, 9.81],
+        };
+        w.write_imu("/imu/data", stamp + 1_000, &s, "imu_link")
+            .unwrap();
     }
     w.finish().unwrap();
     path
@@ -44,9 +55,18 @@ fn info_describes_a_recording() {
     let out = info(&[], &bag);
     let (stdout, stderr) = text(&out);
     assert_eq!(out.status.code(), Some(0), "{stderr}");
-    assert!(stdout.contains("/imu/data  sensor_msgs/msg/Imu"), "{stdout}");
-    assert!(stdout.contains("period τ0 = 0.010000 s (100.000 Hz)"), "{stdout}");
-    assert!(stdout.contains("gaps 1, duplicated stamps 1, backward stamps 0"), "{stdout}");
+    assert!(
+        stdout.contains("/imu/data  sensor_msgs/msg/Imu"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("period τ0 = 0.010000 s (100.000 Hz)"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("gaps 1, duplicated stamps 1, backward stamps 0"),
+        "{stdout}"
+    );
 
     let out = info(&["--json"], &bag);
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
@@ -55,7 +75,10 @@ fn info_describes_a_recording() {
     assert_eq!(json["imu"][0]["period_s"], 0.01);
     assert_eq!(json["imu"][0]["irregularities"]["gaps"], 1);
     // Sensor span: 999 intervals of 10 ms, one of them 60 ms, one 0 ms.
-    assert_eq!(json["imu"][0]["stamp_span_s"], (998.0 * 10.0 + 60.0 - 10.0) * 1e-3);
+    assert_eq!(
+        json["imu"][0]["stamp_span_s"],
+        (998.0 * 10.0 + 60.0 - 10.0) * 1e-3
+    );
 }
 
 #[test]
@@ -71,7 +94,10 @@ fn info_on_a_bag_without_imu_says_so() {
     let (_, stderr) = text(&out);
     assert_eq!(out.status.code(), Some(1));
     assert!(stderr.starts_with("fdavar: error: "), "{stderr}");
-    assert!(stderr.contains("'/imu' is not a sensor_msgs/msg/Imu topic") && stderr.contains("/rosout"), "{stderr}");
+    assert!(
+        stderr.contains("'/imu' is not a sensor_msgs/msg/Imu topic") && stderr.contains("/rosout"),
+        "{stderr}"
+    );
 }
 
 #[test]
@@ -94,8 +120,16 @@ fn bad_inputs_exit_1_with_one_line() {
     ] {
         let out = info(&[], &path);
         let (stdout, stderr) = text(&out);
-        assert_eq!(out.status.code(), Some(1), "{}: {stdout}{stderr}", path.display());
-        assert!(stderr.contains(needle) && stderr.contains(&path.display().to_string()), "{stderr}");
+        assert_eq!(
+            out.status.code(),
+            Some(1),
+            "{}: {stdout}{stderr}",
+            path.display()
+        );
+        assert!(
+            stderr.contains(needle) && stderr.contains(&path.display().to_string()),
+            "{stderr}"
+        );
         assert_eq!(stderr.lines().count(), 1, "{stderr}");
         assert!(!stderr.contains("panicked"), "{stderr}");
     }

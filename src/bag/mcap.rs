@@ -8,7 +8,7 @@
 use super::metadata::{BagFile, FileCompression};
 use super::reader::{FileSummary, RawMessage, RawStream, Role};
 use super::{BagError, TopicInfo};
-use mcap::sans_io::summary_reader::{SummaryReadEvent, SummaryReader};
+use mcap::sans_io::summary_reader::{SummaryReadEvent, SummaryReader, SummaryReaderOptions};
 use mcap::McapError;
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
@@ -21,6 +21,34 @@ const MAGIC: &[u8; 8] = b"\x89MCAP0\r\n";
 /// Read buffer: a few chunks' worth, so reads are large and memory stays small.
 const BUFFER_BYTES: usize = 1 << 20;
 
+/// Longest record accepted in a zstd-compressed file, whose decompressed size is unknown.
+const COMPRESSED_FILE_RECORD_LIMIT: usize = 1 << 30;
+
+/// The longest record the readers may accept: a record cannot be longer than an uncompressed
+/// file. Without a limit, a corrupt length field makes the reader allocate that many bytes up
+/// front, and an absurd one aborts the process.
+fn record_limit(file: &BagFile) -> usize {
+    match file.compression {
+        Some(FileCompression::Zstd) => COMPRESSED_FILE_RECORD_LIMIT,
+        None => std::fs::metadata(&file.path).map_or(COMPRESSED_FILE_RECORD_LIMIT, |m| {
+            usize::try_from(m.len()).unwrap_or(usize::MAX)
+        }),
+    }
+}
+
+/// A message reader over the whole file, checking chunk CRCs and record lengths.
+fn message_reader(
+    file: &BagFile,
+) -> Result<mcap::io::MessageReader<Box<dyn Read + Send>>, BagError> {
+    let options = mcap::sans_io::LinearReaderOptions::default()
+        .with_validate_chunk_crcs(true)
+        .with_record_length_limit(record_limit(file));
+    Ok(mcap::io::MessageReader::new_with_options(
+        open(file)?,
+        options,
+    ))
+}
+
 /// Translates an MCAP reader error into the bag error that explains it to a user.
 fn bag_error(path: &Path, e: McapError) -> BagError {
     let path = path.to_path_buf();
@@ -28,12 +56,15 @@ fn bag_error(path: &Path, e: McapError) -> BagError {
         McapError::UnsupportedCompression(compression) => {
             BagError::UnknownCompression { path, compression }
         }
-        McapError::UnexpectedEof | McapError::BadMagic | McapError::BadFooter => {
-            BagError::Truncated {
-                path,
-                detail: e.to_string(),
-            }
-        }
+        // A record longer than the file (the limit of `record_limit`) ends past its end.
+        McapError::UnexpectedEof
+        | McapError::BadMagic
+        | McapError::BadFooter
+        | McapError::RecordTooLarge { .. }
+        | McapError::ChunkTooLarge(_) => BagError::Truncated {
+            path,
+            detail: e.to_string(),
+        },
         McapError::Io(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
             BagError::Truncated {
                 path,
@@ -82,7 +113,7 @@ pub(crate) fn summarize(file: &BagFile) -> Result<FileSummary, BagError> {
     // Checks the magic: a file that is not MCAP at all is named so, not "truncated".
     drop(open(file)?);
     if file.compression.is_none() {
-        if let Some(summary) = read_summary(&file.path) {
+        if let Some(summary) = read_summary(file) {
             if let Some(stats) = &summary.stats {
                 return Ok(from_summary(&summary, stats));
             }
@@ -94,9 +125,13 @@ pub(crate) fn summarize(file: &BagFile) -> Result<FileSummary, BagError> {
 /// The summary section, if the file has a usable one. `None` when it is absent or unreadable
 /// (a file shorter than a footer makes even the first seek fail): then the file is scanned, and
 /// the scan reports what is wrong with it.
-fn read_summary(path: &Path) -> Option<mcap::Summary> {
-    let mut f = File::open(path).ok()?;
-    let mut reader = SummaryReader::new();
+fn read_summary(file: &BagFile) -> Option<mcap::Summary> {
+    let mut f = File::open(&file.path).ok()?;
+    let size = f.metadata().ok()?.len();
+    let options = SummaryReaderOptions::default()
+        .with_file_size(size)
+        .with_record_length_limit(record_limit(file));
+    let mut reader = SummaryReader::new_with_options(options);
     while let Some(event) = reader.next_event() {
         match event.ok()? {
             SummaryReadEvent::ReadRequest(need) => {
@@ -140,7 +175,7 @@ fn from_summary(summary: &mcap::Summary, stats: &mcap::records::Statistics) -> F
 
 /// Counts messages per channel by reading the whole file once (no summary to ask).
 fn scan(file: &BagFile) -> Result<FileSummary, BagError> {
-    let mut reader = mcap::io::MessageReader::new(open(file)?);
+    let mut reader = message_reader(file)?;
     let mut counts: BTreeMap<u16, (String, String, u64)> = BTreeMap::new();
     let mut span: Option<(i64, i64)> = None;
     for message in reader.by_ref() {
@@ -171,7 +206,7 @@ fn scan(file: &BagFile) -> Result<FileSummary, BagError> {
 
 /// Streams the messages of the wanted topics, in file order.
 pub(crate) fn stream(file: &BagFile, wanted: &[(String, Role)]) -> Result<RawStream, BagError> {
-    let reader = mcap::io::MessageReader::new(open(file)?);
+    let reader = message_reader(file)?;
     Ok(Box::new(McapStream {
         path: file.path.clone(),
         reader,

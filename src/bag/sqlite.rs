@@ -16,8 +16,13 @@ use rusqlite::{Connection, OpenFlags};
 use std::path::Path;
 use std::sync::mpsc;
 
-/// Rows in flight between the query thread and the reader.
-const CHANNEL_ROWS: usize = 1024;
+/// Rows handed over at once: one channel operation per batch, not per row.
+const BATCH_ROWS: usize = 256;
+/// Batches in flight between the query thread and the reader (memory ≈ 4 × 256 messages).
+const CHANNEL_BATCHES: usize = 4;
+
+/// What the query thread sends: a batch of rows, or the error that ended the query.
+type Batch = Result<Vec<RawMessage>, BagError>;
 
 fn corrupt(path: &Path) -> impl Fn(rusqlite::Error) -> BagError + '_ {
     move |e| BagError::CorruptSqlite {
@@ -41,22 +46,42 @@ pub(crate) fn summarize(file: &BagFile) -> Result<FileSummary, BagError> {
     }
     let path = &file.path;
     let conn = connect(path)?;
+    // One pass over `messages` for every topic's count (a join per topic would scan once per
+    // topic); topics without messages are listed with 0.
+    let mut counts: Vec<(i64, u64)> = Vec::new();
     let mut stmt = conn
-        .prepare(
-            "SELECT t.name, t.type, COUNT(m.topic_id) FROM topics t \
-             LEFT JOIN messages m ON m.topic_id = t.id GROUP BY t.id ORDER BY t.id",
-        )
+        .prepare("SELECT topic_id, COUNT(*) FROM messages GROUP BY topic_id")
         .map_err(corrupt(path))?;
-    let topics = stmt
+    let rows = stmt
         .query_map([], |row| {
-            Ok(TopicInfo {
-                name: row.get(0)?,
-                type_name: row.get(1)?,
-                message_count: row.get::<_, i64>(2)? as u64,
-            })
+            Ok((row.get::<_, i64>(0)?, row.get::<_, i64>(1)? as u64))
         })
-        .and_then(|rows| rows.collect::<Result<Vec<_>, _>>())
         .map_err(corrupt(path))?;
+    for row in rows {
+        counts.push(row.map_err(corrupt(path))?);
+    }
+    let mut stmt = conn
+        .prepare("SELECT id, name, type FROM topics ORDER BY id")
+        .map_err(corrupt(path))?;
+    let rows = stmt
+        .query_map([], |row| {
+            Ok((
+                row.get::<_, i64>(0)?,
+                row.get::<_, String>(1)?,
+                row.get::<_, String>(2)?,
+            ))
+        })
+        .map_err(corrupt(path))?;
+    let mut topics = Vec::new();
+    for row in rows {
+        let (id, name, type_name) = row.map_err(corrupt(path))?;
+        let message_count = counts.iter().find(|(t, _)| *t == id).map_or(0, |(_, n)| *n);
+        topics.push(TopicInfo {
+            name,
+            type_name,
+            message_count,
+        });
+    }
     let span = conn
         .query_row(
             "SELECT MIN(timestamp), MAX(timestamp) FROM messages",
@@ -92,7 +117,7 @@ pub(crate) fn stream(file: &BagFile, wanted: &[(String, Role)]) -> Result<RawStr
             ids.push((id, *role));
         }
     }
-    let (tx, rx) = mpsc::sync_channel(CHANNEL_ROWS);
+    let (tx, rx) = mpsc::sync_channel::<Batch>(CHANNEL_BATCHES);
     std::thread::Builder::new()
         .name("fdavar-db3".into())
         .spawn(move || {
@@ -102,14 +127,17 @@ pub(crate) fn stream(file: &BagFile, wanted: &[(String, Role)]) -> Result<RawStr
             }
         })
         .map_err(BagError::io(&file.path))?;
-    Ok(Box::new(rx.into_iter()))
+    Ok(Box::new(rx.into_iter().flat_map(|batch| match batch {
+        Ok(rows) => rows.into_iter().map(Ok).collect::<Vec<_>>(),
+        Err(e) => vec![Err(e)],
+    })))
 }
 
 /// Runs the one ordered query and sends each row; returns early when the receiver is dropped.
 fn query_rows(
     conn: &Connection,
     ids: &[(i64, Role)],
-    tx: &mpsc::SyncSender<Result<RawMessage, BagError>>,
+    tx: &mpsc::SyncSender<Batch>,
 ) -> Result<(), rusqlite::Error> {
     if ids.is_empty() {
         return Ok(());
@@ -124,6 +152,7 @@ fn query_rows(
          ORDER BY timestamp, id"
     ))?;
     let mut rows = stmt.query([])?;
+    let mut batch = Vec::with_capacity(BATCH_ROWS);
     while let Some(row) = rows.next()? {
         let topic_id: i64 = row.get(0)?;
         let role = ids.iter().find(|(id, _)| *id == topic_id).map(|(_, r)| *r);
@@ -133,9 +162,16 @@ fn query_rows(
             log_time_ns: row.get(1)?,
             data: row.get(2)?,
         };
-        if tx.send(Ok(message)).is_err() {
-            return Ok(());
+        batch.push(message);
+        if batch.len() == BATCH_ROWS {
+            let full = std::mem::replace(&mut batch, Vec::with_capacity(BATCH_ROWS));
+            if tx.send(Ok(full)).is_err() {
+                return Ok(());
+            }
         }
+    }
+    if !batch.is_empty() {
+        let _ = tx.send(Ok(batch));
     }
     Ok(())
 }

@@ -15,14 +15,8 @@ import struct
 import sys
 from pathlib import Path
 
-IMU_MSG = """std_msgs/Header header
-geometry_msgs/Quaternion orientation
-float64[9] orientation_covariance
-geometry_msgs/Vector3 angular_velocity
-float64[9] angular_velocity_covariance
-geometry_msgs/Vector3 linear_acceleration
-float64[9] linear_acceleration_covariance
-================================================================================
+# The dependencies both sensor_msgs types share, as rosbag2 appends them to a ros2msg schema.
+HEADER_DEPS = """================================================================================
 MSG: std_msgs/Header
 builtin_interfaces/Time stamp
 string frame_id
@@ -30,7 +24,16 @@ string frame_id
 MSG: builtin_interfaces/Time
 int32 sec
 uint32 nanosec
-================================================================================
+"""
+
+IMU_MSG = """std_msgs/Header header
+geometry_msgs/Quaternion orientation
+float64[9] orientation_covariance
+geometry_msgs/Vector3 angular_velocity
+float64[9] angular_velocity_covariance
+geometry_msgs/Vector3 linear_acceleration
+float64[9] linear_acceleration_covariance
+""" + HEADER_DEPS + """================================================================================
 MSG: geometry_msgs/Quaternion
 float64 x 0
 float64 y 0
@@ -46,15 +49,7 @@ float64 z
 TEMPERATURE_MSG = """std_msgs/Header header
 float64 temperature
 float64 variance
-================================================================================
-MSG: std_msgs/Header
-builtin_interfaces/Time stamp
-string frame_id
-================================================================================
-MSG: builtin_interfaces/Time
-int32 sec
-uint32 nanosec
-"""
+""" + HEADER_DEPS
 
 STRING_MSG = "string data\n"
 

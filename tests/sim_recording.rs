@@ -257,6 +257,11 @@ fn invalid_specs_name_the_field() {
         ("rate_hz: 100", "rate_hz: -100", "rate_hz"),
         ("duration_s: 60", "duration_s: 0.001", "duration_s"),
         ("duration_s: 60", "duration_s: 1.0e9", "duration_s"),
+        (
+            x,
+            "gyro_x: { N: { n: 1.0e-3 }, bias_step: { time_s: 60, size: 1 }",
+            "axes.gyro_x.bias_step.time_s",
+        ),
     ];
     for (from, to, field) in cases {
         let text = SPEC.replacen(from, to, 1);

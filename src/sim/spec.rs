@@ -340,6 +340,22 @@ impl SimSpec {
                         "scales the white noise: add `white` to this axis",
                     ));
                 }
+                // A time-domain event must begin inside the recording (its first time parameter:
+                // `time_s` of a step, `start_s` of a burst).
+                if p.effect.kind().domain() == Domain::TimeDomain {
+                    if let Some(start) = p.effect.params().into_iter().find(|q| q.spec.unit == "s")
+                    {
+                        if start.value >= self.duration_s {
+                            return Err(field_error(
+                                format!("{field}.{}", start.spec.name),
+                                format!(
+                                    "{} s is not inside the recording (duration_s = {})",
+                                    start.value, self.duration_s
+                                ),
+                            ));
+                        }
+                    }
+                }
             }
             axes[axis.index()] = planned;
         }

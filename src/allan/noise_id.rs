@@ -86,7 +86,7 @@ pub fn identify(x: &[f64], m: usize, d_max: u32, terms: usize) -> Option<(i32, N
 /// d = d_max.
 fn lag1_acf_alpha(decimated: &[f64], d_max: u32) -> Option<i32> {
     let freq: Vec<f64> = decimated.windows(2).map(|w| w[1] - w[0]).collect();
-    let mut z = detrend(&freq, 1)?;
+    let mut z = detrend_linear(&freq)?;
     let mut d = 0u32;
     loop {
         let r1 = lag1_acf(&z)?;
@@ -109,28 +109,31 @@ fn lag1_acf(z: &[f64]) -> Option<f64> {
     (den > 0.0).then(|| num / den)
 }
 
-/// Removes the least-squares polynomial of `degree` from `v`.
-fn detrend(v: &[f64], degree: usize) -> Option<Vec<f64>> {
+/// Removes the least-squares straight line (frequency drift) from `v`.
+///
+/// # Formula
+/// ```text
+/// t_i = i − (n−1)/2,   slope = Σ t_i·v_i / Σ t_i²,   v_i ← v_i − v̄ − slope·t_i
+/// ```
+fn detrend_linear(v: &[f64]) -> Option<Vec<f64>> {
     let n = v.len();
-    if n < degree + 2 {
+    if n < 3 {
         return None;
     }
-    // Fit in t ∈ [−1, 1] for conditioning; solve the small normal equations.
-    let half = (n - 1) as f64 / 2.0;
-    let t = |i: usize| (i as f64 - half) / half.max(1.0);
-    let basis = |i: usize| nalgebra::DVector::from_fn(degree + 1, |k, _| t(i).powi(k as i32));
-    let mut a = nalgebra::DMatrix::<f64>::zeros(degree + 1, degree + 1);
-    let mut b = nalgebra::DVector::<f64>::zeros(degree + 1);
-    for (i, &y) in v.iter().enumerate() {
-        let row = basis(i);
-        a += &row * row.transpose();
-        b += &row * y;
-    }
-    let c = a.lu().solve(&b)?;
+    let centre = (n - 1) as f64 / 2.0;
+    let mean = v.iter().sum::<f64>() / n as f64;
+    let (stv, stt) = v
+        .iter()
+        .enumerate()
+        .fold((0.0, 0.0), |(stv, stt), (i, &y)| {
+            let t = i as f64 - centre;
+            (stv + t * (y - mean), stt + t * t)
+        });
+    let slope = stv / stt;
     Some(
         v.iter()
             .enumerate()
-            .map(|(i, &y)| y - c.dot(&basis(i)))
+            .map(|(i, &y)| y - mean - slope * (i as f64 - centre))
             .collect(),
     )
 }

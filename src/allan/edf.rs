@@ -98,7 +98,11 @@ pub fn greenhall_edf(alpha: i32, shape: VarianceShape, m: usize, n: usize) -> Op
     } else if alpha <= 0 {
         // Case 2: unmodified, α ≤ 0.
         if j <= J_MAX {
-            let fp = if mf * (df + 1.0) <= J_MAX { mf } else { f64::INFINITY };
+            let fp = if mf * (df + 1.0) <= J_MAX {
+                mf
+            } else {
+                f64::INFINITY
+            };
             basic_sum(j, big_m, s, fp, alpha, d) / (sz0(fp).powi(2) * big_m)
         } else if r > df + 1.0 {
             let (a0, a1) = table2(alpha, d)?;
@@ -192,7 +196,11 @@ fn binomial(n: u32, k: u32) -> f64 {
 /// Table 1 (modified variances): (a0, a1) by α (rows 2 … −4) and d (columns 1 … 3).
 fn table1(alpha: i32, d: u32) -> Option<(f64, f64)> {
     const T: [[(f64, f64); 3]; 7] = [
-        [(2.0 / 3.0, 1.0 / 3.0), (7.0 / 9.0, 1.0 / 2.0), (22.0 / 25.0, 2.0 / 3.0)],
+        [
+            (2.0 / 3.0, 1.0 / 3.0),
+            (7.0 / 9.0, 1.0 / 2.0),
+            (22.0 / 25.0, 2.0 / 3.0),
+        ],
         [(0.840, 0.345), (0.997, 0.616), (1.141, 0.843)],
         [(1.079, 0.368), (1.033, 0.607), (1.184, 0.848)],
         [(f64::NAN, f64::NAN), (1.048, 0.534), (1.180, 0.816)],
@@ -206,9 +214,17 @@ fn table1(alpha: i32, d: u32) -> Option<(f64, f64)> {
 /// Table 2 (unmodified variances): (a0, a1) by α and d.
 fn table2(alpha: i32, d: u32) -> Option<(f64, f64)> {
     const T: [[(f64, f64); 3]; 7] = [
-        [(3.0 / 2.0, 1.0 / 2.0), (35.0 / 18.0, 1.0), (231.0 / 100.0, 3.0 / 2.0)],
+        [
+            (3.0 / 2.0, 1.0 / 2.0),
+            (35.0 / 18.0, 1.0),
+            (231.0 / 100.0, 3.0 / 2.0),
+        ],
         [(78.6, 25.2), (790.0, 410.0), (9950.0, 6520.0)],
-        [(2.0 / 3.0, 1.0 / 6.0), (2.0 / 3.0, 1.0 / 3.0), (7.0 / 9.0, 1.0 / 2.0)],
+        [
+            (2.0 / 3.0, 1.0 / 6.0),
+            (2.0 / 3.0, 1.0 / 3.0),
+            (7.0 / 9.0, 1.0 / 2.0),
+        ],
         [(f64::NAN, f64::NAN), (0.852, 0.375), (0.997, 0.617)],
         [(f64::NAN, f64::NAN), (1.079, 0.368), (1.033, 0.607)],
         [(f64::NAN, f64::NAN), (f64::NAN, f64::NAN), (1.053, 0.553)],
@@ -249,8 +265,8 @@ pub const ONE_SIGMA: f64 = 0.682_689_492_137_085_9;
 /// ```
 /// use fdavar::allan::edf::{chi2_interval, ONE_SIGMA};
 /// let (lo, hi) = chi2_interval(1.0, 10.0, ONE_SIGMA).unwrap();
-/// // χ²(0.8413; 10) = 14.0697, χ²(0.1587; 10) = 5.6466
-/// assert!((lo - 10.0 / 14.0697).abs() < 1e-4 && (hi - 10.0 / 5.6466).abs() < 1e-4);
+/// // χ²(0.8413; 10) = 14.32551, χ²(0.1587; 10) = 5.68062 (scipy.stats.chi2.ppf)
+/// assert!((lo - 10.0 / 14.32551).abs() < 1e-5 && (hi - 10.0 / 5.68062).abs() < 1e-5);
 /// ```
 pub fn chi2_interval(avar: f64, edf: f64, confidence: f64) -> Option<(f64, f64)> {
     if !(edf.is_finite() && edf > 0.0 && confidence > 0.0 && confidence < 1.0) {
@@ -270,7 +286,9 @@ fn chi2_quantile(q: f64, nu: f64) -> Option<f64> {
     let dist = ChiSquared::new(nu).ok()?;
     let z = standard_normal_quantile(q);
     let k = 2.0 / (9.0 * nu);
-    let mut x = (nu * (1.0 - k + z * k.sqrt()).powi(3)).max(nu * 1e-3).max(1e-300);
+    let mut x = (nu * (1.0 - k + z * k.sqrt()).powi(3))
+        .max(nu * 1e-3)
+        .max(1e-300);
     for _ in 0..50 {
         let step = (dist.cdf(x) - q) / dist.pdf(x);
         if !step.is_finite() {
@@ -296,19 +314,31 @@ fn standard_normal_quantile(p: f64) -> f64 {
 mod tests {
     use super::*;
 
-    const OADEV: VarianceShape = VarianceShape { d: 2, overlapping: true, modified: false };
+    const OADEV: VarianceShape = VarianceShape {
+        d: 2,
+        overlapping: true,
+        modified: false,
+    };
 
     #[test]
     fn quantiles_match_tables() {
-        // Median of χ²(100) = 99.3341 (Abramowitz & Stegun 26.4); large ν: ν − √(2ν) at z = −1.
-        // ν = 1: χ² = z², so P(χ² ≤ 1) = P(|z| ≤ 1) = erf(1/√2).
+        // Reference quantiles from scipy.stats.chi2.ppf (SciPy 1.x, cephes).
+        // ν = 1: χ² = z², so P(χ² ≤ 1) = P(|z| ≤ 1) = erf(1/√2) exactly.
         let q = chi2_quantile(ONE_SIGMA, 1.0).unwrap();
         assert!((q - 1.0).abs() < 1e-9, "{q}");
-        let q = chi2_quantile(0.5, 100.0).unwrap();
-        assert!((q - 99.334_2).abs() < 1e-3, "{q}");
-        let q = chi2_quantile(0.158_655_254, 500_000.0).unwrap();
-        let approx = 500_000.0 - 1000.0; // ν − √(2ν)·1 to first order
-        assert!((q / approx - 1.0).abs() < 1e-5, "{q}");
+        let p = (1.0 - ONE_SIGMA) / 2.0;
+        for (q, nu, want) in [
+            (p, 10.0, 5.680_617_711_186_441),
+            (1.0 - p, 10.0, 14.325_506_344_521_887),
+            (0.5, 100.0, 99.334_129_235_988_46),
+            (p, 5e5, 499_000.000_666_726),
+        ] {
+            let got = chi2_quantile(q, nu).unwrap();
+            assert!(
+                (got / want - 1.0).abs() < 1e-8,
+                "q={q} ν={nu}: {got} vs {want}"
+            );
+        }
     }
 
     #[test]
@@ -325,8 +355,16 @@ mod tests {
     fn exact_white_fm_oadev_edf(n: usize, m: usize) -> f64 {
         let big_m = (n - 2 * m) as f64;
         let mf = m as f64;
-        let rho = |k: f64| if k <= mf { (2.0 * mf - 3.0 * k) / (2.0 * mf) } else { -(2.0 * mf - k) / (2.0 * mf) };
-        let s: f64 = (1..2 * m).map(|k| 2.0 * (1.0 - k as f64 / big_m) * rho(k as f64).powi(2)).sum();
+        let rho = |k: f64| {
+            if k <= mf {
+                (2.0 * mf - 3.0 * k) / (2.0 * mf)
+            } else {
+                -(2.0 * mf - k) / (2.0 * mf)
+            }
+        };
+        let s: f64 = (1..2 * m)
+            .map(|k| 2.0 * (1.0 - k as f64 / big_m) * rho(k as f64).powi(2))
+            .sum();
         big_m / (1.0 + s)
     }
 

@@ -90,6 +90,9 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
+    /// A fast path's signature.
+    type Fast = fn(&[f64], f64, usize) -> Option<(f64, usize)>;
+
     fn close(a: f64, b: f64) -> bool {
         (a - b).abs() <= 1e-9 * b.abs().max(f64::MIN_POSITIVE)
     }
@@ -99,7 +102,8 @@ mod tests {
         #[test]
         fn fast_paths_match_naive(x in prop::collection::vec(-1e3f64..1e3, 4..200), tau0 in 0.001f64..10.0) {
             for m in 1..=x.len() {
-                let pairs: [(Option<(f64, usize)>, Option<f64>); 4] = [
+                type FastAndNaive = (Option<(f64, usize)>, Option<f64>);
+                let pairs: [FastAndNaive; 4] = [
                     (oavar(&x, tau0, m), naive::oavar(&x, tau0, m)),
                     (avar(&x, tau0, m), naive::avar(&x, tau0, m)),
                     (hvar(&x, tau0, m), naive::hvar(&x, tau0, m)),
@@ -126,6 +130,25 @@ mod tests {
                 prop_assert!((b - c * c * a).abs() <= 1e-7 * (c * c * a).max(1e-9), "{b} vs {}", c * c * a);
             }
         }
+    }
+
+    #[test]
+    fn nbs14_as_published() {
+        // NIST SP 1065 p. 107 (published values, 7 significant figures).
+        let x = [
+            0.0, 103.11111, 123.22222, 157.33333, 166.44444, 48.55555, -96.33333, -2.22222,
+            111.88889, 0.0,
+        ];
+        let dev = |f: Fast, m| f(&x, 1.0, m).unwrap().0.sqrt();
+        let rel = |a: f64, b: f64| (a / b - 1.0).abs();
+        assert!(rel(dev(avar, 1), 91.22945) < 1e-6);
+        assert!(rel(dev(avar, 2), 115.8082) < 1e-6);
+        assert!(rel(dev(oavar, 1), 91.22945) < 1e-6);
+        assert!(rel(dev(oavar, 2), 85.95287) < 1e-6);
+        assert!(rel(dev(mvar, 1), 91.22945) < 1e-6);
+        assert!(rel(dev(mvar, 2), 74.78849) < 1e-6);
+        assert!(rel(dev(hvar, 1), 70.80608) < 1e-6);
+        assert!(rel(dev(hvar, 2), 116.7980) < 1e-6);
     }
 
     #[test]

@@ -74,7 +74,12 @@ pub enum Estimator {
 
 impl Estimator {
     /// All estimators, in `--help` order.
-    pub const ALL: [Estimator; 4] = [Estimator::Oadev, Estimator::Adev, Estimator::Mdev, Estimator::Hdev];
+    pub const ALL: [Estimator; 4] = [
+        Estimator::Oadev,
+        Estimator::Adev,
+        Estimator::Mdev,
+        Estimator::Hdev,
+    ];
 
     /// The command-line name, e.g. `oadev`.
     pub fn name(self) -> &'static str {
@@ -127,7 +132,11 @@ impl Estimator {
             Estimator::Mdev => (2, true, true),
             Estimator::Hdev => (3, false, false),
         };
-        edf::VarianceShape { d, overlapping, modified }
+        edf::VarianceShape {
+            d,
+            overlapping,
+            modified,
+        }
     }
 }
 
@@ -228,16 +237,29 @@ pub fn estimate(
         return Err(AllanError::NonFinite { index, value });
     }
     if estimator.max_factor(x.len()) == 0 {
-        return Err(AllanError::TooFewPoints { estimator, needed: estimator.span() + 1, got: x.len() });
+        return Err(AllanError::TooFewPoints {
+            estimator,
+            needed: estimator.span() + 1,
+            got: x.len(),
+        });
     }
     let shape = estimator.shape();
     Ok(factors
         .iter()
         .filter_map(|&m| {
             let (avar, terms) = estimator.variance(x, tau0, m)?;
-            let alpha = noise_id::identify(x, m, shape.d).map(|(a, _)| a);
+            let alpha = noise_id::identify(x, m, shape.d, terms).map(|(a, _)| a);
             Some(Estimate {
-                point: with_confidence(m, m as f64 * tau0, avar, terms, alpha.unwrap_or(0), shape, x.len(), confidence),
+                point: with_confidence(
+                    m,
+                    m as f64 * tau0,
+                    avar,
+                    terms,
+                    alpha.unwrap_or(0),
+                    shape,
+                    x.len(),
+                    confidence,
+                ),
                 alpha,
             })
         })
@@ -260,6 +282,15 @@ pub(crate) fn with_confidence(
     confidence: f64,
 ) -> AllanPoint {
     let edf = edf::greenhall_edf(alpha, shape, m, n).unwrap_or((terms as f64 - 1.0).max(1.0));
-    let (ci_low, ci_high) = edf::chi2_interval(avar, edf, confidence).unwrap_or((f64::NAN, f64::NAN));
-    AllanPoint { m, tau, avar, terms, edf, ci_low, ci_high }
+    let (ci_low, ci_high) =
+        edf::chi2_interval(avar, edf, confidence).unwrap_or((f64::NAN, f64::NAN));
+    AllanPoint {
+        m,
+        tau,
+        avar,
+        terms,
+        edf,
+        ci_low,
+        ci_high,
+    }
 }

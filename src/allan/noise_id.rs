@@ -4,8 +4,8 @@
 //! PM), 1 (flicker PM), 0 (white FM), −1 (flicker FM), −2 (random-walk FM), −3, −4}. Stable32 (and
 //! this module) identify α per τ the way Riley & Greenhall recommend:
 //! - with at least [`ACF_MIN_POINTS`] phase points after decimation by m: the lag-1 autocorrelation
-//!   of the (quadratically detrended) decimated phase, differenced until it is no longer strongly
-//!   correlated;
+//!   of the m-sample frequency averages (linear drift removed), differenced until it is no longer
+//!   strongly correlated;
 //! - otherwise: Barnes' B1 ratio (standard variance over Allan variance) against its theoretical
 //!   value for each power law, and the R(n) ratio (MVAR/AVAR) to split white from flicker PM.
 //!
@@ -33,6 +33,12 @@ pub enum NoiseIdMethod {
 
 /// Identifies the integer power-law exponent α at averaging factor `m` from phase data `x`.
 ///
+/// `terms` is the number of terms of the estimate α is wanted for; the B1 method takes the N of
+/// Barnes' theoretical ratio as the number of frequency values those terms span, terms + d_max − 1
+/// (the m-averages for ADEV/HDEV, about the term count for OADEV/MDEV). This choice is empirical:
+/// it is the one that reproduces every Alpha of Stable32's Cs5071A tables for all four
+/// estimators (the measured ratio is always the standard variance over the non-overlapping Allan
+/// variance of the m-averages).
 /// `d_max` is the difference order of the variance (2 for Allan, 3 for Hadamard): the result is
 /// clamped to the α range that variance converges for (α > 1 − 2·d_max). Returns `None` when
 /// there is too little data for either method (fewer than two whole averages of m samples) or
@@ -43,9 +49,9 @@ pub enum NoiseIdMethod {
 /// use rand::{Rng, SeedableRng};
 /// let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
 /// let white_pm: Vec<f64> = (0..2000).map(|_| rng.random::<f64>() - 0.5).collect();
-/// assert_eq!(identify(&white_pm, 1, 2), Some((2, NoiseIdMethod::Lag1Acf)));
+/// assert_eq!(identify(&white_pm, 1, 2, 1998), Some((2, NoiseIdMethod::Lag1Acf)));
 /// ```
-pub fn identify(x: &[f64], m: usize, d_max: u32) -> Option<(i32, NoiseIdMethod)> {
+pub fn identify(x: &[f64], m: usize, d_max: u32, terms: usize) -> Option<(i32, NoiseIdMethod)> {
     if m == 0 {
         return None;
     }
@@ -57,27 +63,36 @@ pub fn identify(x: &[f64], m: usize, d_max: u32) -> Option<(i32, NoiseIdMethod)>
     let (alpha, method) = if decimated.len() >= ACF_MIN_POINTS {
         (lag1_acf_alpha(&decimated, d_max)?, NoiseIdMethod::Lag1Acf)
     } else {
-        (b1_alpha(x, m)?, NoiseIdMethod::B1)
+        (
+            b1_alpha(x, m, terms + d_max as usize - 1)?,
+            NoiseIdMethod::B1,
+        )
     };
     Some((alpha.clamp(min_alpha, 2), method))
 }
 
-/// Lag-1 ACF method on decimated phase: α = round(−2(δ + d)) + 2.
+/// Lag-1 ACF method on the frequency averages of the decimated phase: α = −round(2δ) − 2d.
+///
+/// The decimated phase is differenced once (m-sample frequency averages) and its linear trend
+/// (frequency drift) removed before the first test. Testing the phase itself first (d = 0 on
+/// phase, as allantools does) misreads short decimated records: on the Cs5071A record at m = 10⁴
+/// (56 points) it gives white PM where Stable32 reports white FM; the frequency form agrees.
 ///
 /// # Formula
 /// ```text
 /// r1 = Σ (z[i] − z̄)(z[i+1] − z̄) / Σ (z[i] − z̄)²,   δ = r1/(1 + r1)
 /// ```
-/// where z is the detrended phase differenced d times, d growing from 0 until δ < 0.25 or
+/// where z is the detrended frequency differenced d times, d growing from 0 until δ < 0.25 or
 /// d = d_max.
 fn lag1_acf_alpha(decimated: &[f64], d_max: u32) -> Option<i32> {
-    let mut z = detrend_quadratic(decimated)?;
+    let freq: Vec<f64> = decimated.windows(2).map(|w| w[1] - w[0]).collect();
+    let mut z = detrend(&freq, 1)?;
     let mut d = 0u32;
     loop {
         let r1 = lag1_acf(&z)?;
         let delta = r1 / (1.0 + r1);
         if delta < 0.25 || d >= d_max {
-            return Some(2 - (2.0 * delta).round() as i32 - 2 * d as i32);
+            return Some(-(2.0 * delta).round() as i32 - 2 * d as i32);
         }
         z = z.windows(2).map(|w| w[1] - w[0]).collect();
         d += 1;
@@ -94,37 +109,35 @@ fn lag1_acf(z: &[f64]) -> Option<f64> {
     (den > 0.0).then(|| num / den)
 }
 
-/// Removes the least-squares quadratic (frequency offset and drift) from `v`.
-fn detrend_quadratic(v: &[f64]) -> Option<Vec<f64>> {
+/// Removes the least-squares polynomial of `degree` from `v`.
+fn detrend(v: &[f64], degree: usize) -> Option<Vec<f64>> {
     let n = v.len();
-    if n < 4 {
+    if n < degree + 2 {
         return None;
     }
-    // Fit in t ∈ [−1, 1] for conditioning; solve the 3×3 normal equations.
+    // Fit in t ∈ [−1, 1] for conditioning; solve the small normal equations.
     let half = (n - 1) as f64 / 2.0;
     let t = |i: usize| (i as f64 - half) / half.max(1.0);
-    let mut a = nalgebra::Matrix3::<f64>::zeros();
-    let mut b = nalgebra::Vector3::<f64>::zeros();
+    let basis = |i: usize| nalgebra::DVector::from_fn(degree + 1, |k, _| t(i).powi(k as i32));
+    let mut a = nalgebra::DMatrix::<f64>::zeros(degree + 1, degree + 1);
+    let mut b = nalgebra::DVector::<f64>::zeros(degree + 1);
     for (i, &y) in v.iter().enumerate() {
-        let ti = t(i);
-        let row = nalgebra::Vector3::new(1.0, ti, ti * ti);
-        a += row * row.transpose();
-        b += row * y;
+        let row = basis(i);
+        a += &row * row.transpose();
+        b += &row * y;
     }
     let c = a.lu().solve(&b)?;
     Some(
         v.iter()
             .enumerate()
-            .map(|(i, &y)| {
-                let ti = t(i);
-                y - (c[0] + c[1] * ti + c[2] * ti * ti)
-            })
+            .map(|(i, &y)| y - c.dot(&basis(i)))
             .collect(),
     )
 }
 
-/// B1 method: μ from the ratio of the standard variance of m-averages to their Allan variance.
-fn b1_alpha(x: &[f64], m: usize) -> Option<i32> {
+/// B1 method: μ from the ratio of the standard variance of m-averages to their Allan variance,
+/// compared with Barnes' B1(N = `n_theory`, μ).
+fn b1_alpha(x: &[f64], m: usize, n_theory: usize) -> Option<i32> {
     // Frequency averages over m samples: ȳ_k = (x[(k+1)m] − x[km]) / m (τ0 cancels in ratios).
     let averages: Vec<f64> = x
         .iter()
@@ -139,8 +152,12 @@ fn b1_alpha(x: &[f64], m: usize) -> Option<i32> {
     }
     let mean = averages.iter().sum::<f64>() / n as f64;
     let std_var = averages.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
-    let allan_var = averages.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2.0 * (n - 1) as f64);
-    if !(allan_var > 0.0) {
+    let allan_var = averages
+        .windows(2)
+        .map(|w| (w[1] - w[0]).powi(2))
+        .sum::<f64>()
+        / (2.0 * (n - 1) as f64);
+    if allan_var.is_nan() || allan_var <= 0.0 {
         return None;
     }
     let ratio = std_var / allan_var;
@@ -148,7 +165,8 @@ fn b1_alpha(x: &[f64], m: usize) -> Option<i32> {
     // geometric means of neighbouring theoretical values.
     let mut mu = -2;
     for cand in -1..=2 {
-        let boundary = (b1_theory(n, cand - 1) * b1_theory(n, cand)).sqrt();
+        let boundary =
+            (b1_theory(n_theory.max(2), cand - 1) * b1_theory(n_theory.max(2), cand)).sqrt();
         if ratio > boundary {
             mu = cand;
         }
@@ -158,7 +176,11 @@ fn b1_alpha(x: &[f64], m: usize) -> Option<i32> {
     }
     // μ = −2: white PM (R(n) = 1/m) or flicker PM (R(n) from the PSD integrals).
     let rn = naive_ratio_mvar_avar(x, m)?;
-    Some(if rn < (rn_theory(m, 2) * rn_theory(m, 1)).sqrt() { 2 } else { 1 })
+    Some(if rn < (rn_theory(m, 2) * rn_theory(m, 1)).sqrt() {
+        2
+    } else {
+        1
+    })
 }
 
 /// Barnes' B1 bias function for N averages and τ-exponent μ of the Allan variance.
@@ -218,11 +240,20 @@ mod tests {
     #[test]
     fn acf_identifies_white_pm_fm_and_random_walk_fm() {
         let w = white(20_000, 1);
-        assert_eq!(identify(&w, 1, 2), Some((2, NoiseIdMethod::Lag1Acf)));
+        assert_eq!(
+            identify(&w, 1, 2, 19_998),
+            Some((2, NoiseIdMethod::Lag1Acf))
+        );
         let wfm = integrate(&w);
-        assert_eq!(identify(&wfm, 4, 2), Some((0, NoiseIdMethod::Lag1Acf)));
+        assert_eq!(
+            identify(&wfm, 4, 2, 19_993),
+            Some((0, NoiseIdMethod::Lag1Acf))
+        );
         let rwfm = integrate(&integrate(&w));
-        assert_eq!(identify(&rwfm, 4, 2), Some((-2, NoiseIdMethod::Lag1Acf)));
+        assert_eq!(
+            identify(&rwfm, 4, 2, 19_992),
+            Some((-2, NoiseIdMethod::Lag1Acf))
+        );
     }
 
     #[test]
@@ -233,18 +264,21 @@ mod tests {
             (0..20)
                 .filter(|&seed| {
                     let x = make(&white(20_000, 100 + seed));
-                    identify(&x, 1000, 2) == Some((alpha, NoiseIdMethod::B1))
+                    identify(&x, 1000, 2, 19) == Some((alpha, NoiseIdMethod::B1))
                 })
                 .count()
         };
         let wfm = hits(0, &|w| integrate(w));
         let rwfm = hits(-2, &|w| integrate(&integrate(w)));
-        assert!(wfm >= 14 && rwfm >= 14, "white FM {wfm}/20, random-walk FM {rwfm}/20");
+        assert!(
+            wfm >= 14 && rwfm >= 14,
+            "white FM {wfm}/20, random-walk FM {rwfm}/20"
+        );
     }
 
     #[test]
     fn too_little_data_or_constant_gives_none() {
-        assert_eq!(identify(&[1.0, 2.0], 4, 2), None);
-        assert_eq!(identify(&[3.0; 100], 1, 2), None);
+        assert_eq!(identify(&[1.0, 2.0], 4, 2, 0), None);
+        assert_eq!(identify(&[3.0; 100], 1, 2, 98), None);
     }
 }

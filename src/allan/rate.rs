@@ -34,7 +34,10 @@ pub struct RatePoint {
 /// assert!((p[1].adev() - 85.95287).abs() < 1e-4);
 /// ```
 pub fn oavar_rate(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<AllanPoint> {
-    oavar_rate_counted(rate, tau0, factors).into_iter().map(|r| r.point).collect()
+    oavar_rate_counted(rate, tau0, factors)
+        .into_iter()
+        .map(|r| r.point)
+        .collect()
 }
 
 /// Overlapping Allan variance of rate data, leaving out and counting terms that touch invalid samples.
@@ -66,7 +69,10 @@ pub fn oavar_rate_counted(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<Rat
         return Vec::new();
     }
     let reference = valid[0];
-    let centred: Vec<f64> = rate.iter().map(|&v| if v.is_finite() { v - reference } else { 0.0 }).collect();
+    let centred: Vec<f64> = rate
+        .iter()
+        .map(|&v| if v.is_finite() { v - reference } else { 0.0 })
+        .collect();
     let x = phase_from_rate(&centred, tau0);
     // bad[k] = number of invalid samples among rate[..k].
     let bad: Vec<usize> = std::iter::once(0)
@@ -75,7 +81,10 @@ pub fn oavar_rate_counted(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<Rat
             Some(*acc)
         }))
         .collect();
-    let compact_phase = phase_from_rate(&valid.iter().map(|v| v - reference).collect::<Vec<_>>(), tau0);
+    let compact_phase = phase_from_rate(
+        &valid.iter().map(|v| v - reference).collect::<Vec<_>>(),
+        tau0,
+    );
     let shape = Estimator::Oadev.shape();
     factors
         .iter()
@@ -98,9 +107,22 @@ pub fn oavar_rate_counted(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<Rat
             }
             let tau = m as f64 * tau0;
             let avar = sum / (2.0 * tau * tau * terms as f64);
-            let alpha = noise_id::identify(&compact_phase, m, shape.d).map(|(a, _)| a);
-            let point = with_confidence(m, tau, avar, terms, alpha.unwrap_or(0), shape, terms + 2 * m, super::edf::ONE_SIGMA);
-            Some(RatePoint { point, skipped, alpha })
+            let alpha = noise_id::identify(&compact_phase, m, shape.d, terms).map(|(a, _)| a);
+            let point = with_confidence(
+                m,
+                tau,
+                avar,
+                terms,
+                alpha.unwrap_or(0),
+                shape,
+                terms + 2 * m,
+                super::edf::ONE_SIGMA,
+            );
+            Some(RatePoint {
+                point,
+                skipped,
+                alpha,
+            })
         })
         .collect()
 }

@@ -152,7 +152,16 @@ impl OavarAccumulator {
             .map(|i| {
                 let (m, avar, terms) = raw[i];
                 let alpha = slope_alpha(&raw, i);
-                with_confidence(m, m as f64 * self.tau0, avar, terms, alpha, shape, terms + 2 * m, edf::ONE_SIGMA)
+                with_confidence(
+                    m,
+                    m as f64 * self.tau0,
+                    avar,
+                    terms,
+                    alpha,
+                    shape,
+                    terms + 2 * m,
+                    edf::ONE_SIGMA,
+                )
             })
             .collect()
     }
@@ -208,7 +217,13 @@ mod tests {
 
     #[test]
     fn rejects_bad_settings() {
-        assert_eq!(OavarAccumulator::new(0.0, &[1]).unwrap_err(), StreamingError::BadTau0(0.0));
-        assert_eq!(OavarAccumulator::new(0.1, &[0, 1]).unwrap_err(), StreamingError::ZeroFactor);
+        assert_eq!(
+            OavarAccumulator::new(0.0, &[1]).unwrap_err(),
+            StreamingError::BadTau0(0.0)
+        );
+        assert_eq!(
+            OavarAccumulator::new(0.1, &[0, 1]).unwrap_err(),
+            StreamingError::ZeroFactor
+        );
     }
 }

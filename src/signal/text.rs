@@ -26,7 +26,10 @@ impl FromStr for ColumnSelector {
     type Err = std::convert::Infallible;
     /// A whole number is an index, anything else a name.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Ok(s.parse::<usize>().map_or_else(|_| ColumnSelector::Name(s.to_string()), ColumnSelector::Index))
+        Ok(s.parse::<usize>().map_or_else(
+            |_| ColumnSelector::Name(s.to_string()),
+            ColumnSelector::Index,
+        ))
     }
 }
 
@@ -97,7 +100,10 @@ pub enum TextError {
 /// [`TextError::MissingColumn`] and [`TextError::UnknownColumnName`] for column selections that do
 /// not fit the file.
 pub fn read_column(path: &Path, column: Option<&ColumnSelector>) -> Result<Vec<f64>, TextError> {
-    let io = |source| TextError::Io { path: path.to_path_buf(), source };
+    let io = |source| TextError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
     let file = std::fs::File::open(path).map_err(io)?;
     parse_column(std::io::BufReader::new(file), path, column)
 }
@@ -114,7 +120,11 @@ pub fn read_column(path: &Path, column: Option<&ColumnSelector>) -> Result<Vec<f
 ///
 /// # Errors
 /// As [`read_column`].
-pub fn parse_column<R: BufRead>(reader: R, path: &Path, column: Option<&ColumnSelector>) -> Result<Vec<f64>, TextError> {
+pub fn parse_column<R: BufRead>(
+    reader: R,
+    path: &Path,
+    column: Option<&ColumnSelector>,
+) -> Result<Vec<f64>, TextError> {
     let mut values = Vec::new();
     let mut index = match column {
         Some(ColumnSelector::Index(i)) => Some(*i),
@@ -123,7 +133,10 @@ pub fn parse_column<R: BufRead>(reader: R, path: &Path, column: Option<&ColumnSe
     let mut seen_data = false;
     for (n, line) in reader.lines().enumerate() {
         let line_no = n + 1;
-        let line = line.map_err(|source| TextError::Io { path: path.to_path_buf(), source })?;
+        let line = line.map_err(|source| TextError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
         let text = line.trim();
         if text.is_empty() || text.starts_with('#') {
             continue;
@@ -157,7 +170,11 @@ pub fn parse_column<R: BufRead>(reader: R, path: &Path, column: Option<&ColumnSe
                         return Err(TextError::UnknownColumnName {
                             path: path.to_path_buf(),
                             name,
-                            header: if header { text.to_string() } else { "no header row".to_string() },
+                            header: if header {
+                                text.to_string()
+                            } else {
+                                "no header row".to_string()
+                            },
                         });
                     }
                 }
@@ -174,7 +191,11 @@ pub fn parse_column<R: BufRead>(reader: R, path: &Path, column: Option<&ColumnSe
 }
 
 fn not_a_number(path: &Path, line: usize, text: &str) -> TextError {
-    TextError::NotANumber { path: path.to_path_buf(), line, text: text.to_string() }
+    TextError::NotANumber {
+        path: path.to_path_buf(),
+        line,
+        text: text.to_string(),
+    }
 }
 
 fn split_fields(text: &str) -> Vec<&str> {
@@ -199,35 +220,66 @@ mod tests {
 
     #[test]
     fn plain_text_with_comments_and_blanks() {
-        assert_eq!(parse("# PHASE.DAT\n#\n1.5\n\n-2e-3\n", None).unwrap(), vec![1.5, -2e-3]);
+        assert_eq!(
+            parse("# PHASE.DAT\n#\n1.5\n\n-2e-3\n", None).unwrap(),
+            vec![1.5, -2e-3]
+        );
     }
 
     #[test]
     fn bad_line_is_named() {
         let e = parse("1\n2\nabc\n", None).unwrap_err();
-        assert!(matches!(e, TextError::NotANumber { line: 3, ref text, .. } if text == "abc"), "{e}");
+        assert!(
+            matches!(e, TextError::NotANumber { line: 3, ref text, .. } if text == "abc"),
+            "{e}"
+        );
         assert_eq!(e.to_string(), "f.txt:3: not a number: 'abc'");
-        assert!(matches!(parse("1\n2,3\n", None).unwrap_err(), TextError::NotANumber { line: 2, .. }));
+        assert!(matches!(
+            parse("1\n2,3\n", None).unwrap_err(),
+            TextError::NotANumber { line: 2, .. }
+        ));
     }
 
     #[test]
     fn csv_by_index_and_name_with_optional_header() {
         let idx = ColumnSelector::Index(1);
-        assert_eq!(parse("a,b\n1,2\n3,4\n", Some(&idx)).unwrap(), vec![2.0, 4.0]);
+        assert_eq!(
+            parse("a,b\n1,2\n3,4\n", Some(&idx)).unwrap(),
+            vec![2.0, 4.0]
+        );
         assert_eq!(parse("1,2\n3,4\n", Some(&idx)).unwrap(), vec![2.0, 4.0]);
         assert_eq!(parse("1 2\n3 4\n", Some(&idx)).unwrap(), vec![2.0, 4.0]);
         let name: ColumnSelector = "\"b\"".trim_matches('"').parse().unwrap();
-        assert_eq!(parse("a,\"b\"\n1,2\n3,4\n", Some(&name)).unwrap(), vec![2.0, 4.0]);
+        assert_eq!(
+            parse("a,\"b\"\n1,2\n3,4\n", Some(&name)).unwrap(),
+            vec![2.0, 4.0]
+        );
     }
 
     #[test]
     fn csv_errors_name_the_problem() {
         let e = parse("1,2\n3\n", Some(&ColumnSelector::Index(1))).unwrap_err();
-        assert!(matches!(e, TextError::MissingColumn { line: 2, fields: 1, .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                TextError::MissingColumn {
+                    line: 2,
+                    fields: 1,
+                    ..
+                }
+            ),
+            "{e}"
+        );
         let e = parse("a,b\n1,2\n", Some(&ColumnSelector::Name("c".into()))).unwrap_err();
-        assert!(matches!(e, TextError::UnknownColumnName { ref header, .. } if header == "a,b"), "{e}");
+        assert!(
+            matches!(e, TextError::UnknownColumnName { ref header, .. } if header == "a,b"),
+            "{e}"
+        );
         let e = parse("1,2\n", Some(&ColumnSelector::Name("c".into()))).unwrap_err();
-        assert!(matches!(e, TextError::UnknownColumnName { ref header, .. } if header == "no header row"), "{e}");
+        assert!(
+            matches!(e, TextError::UnknownColumnName { ref header, .. } if header == "no header row"),
+            "{e}"
+        );
         let e = parse("a,b\n1,x\n", Some(&ColumnSelector::Index(1))).unwrap_err();
         assert!(matches!(e, TextError::NotANumber { line: 2, .. }), "{e}");
     }
@@ -235,12 +287,21 @@ mod tests {
     #[test]
     fn missing_file_is_an_io_error_with_the_path() {
         let e = read_column(Path::new("/nonexistent/x.txt"), None).unwrap_err();
-        assert!(e.to_string().starts_with("cannot read /nonexistent/x.txt"), "{e}");
+        assert!(
+            e.to_string().starts_with("cannot read /nonexistent/x.txt"),
+            "{e}"
+        );
     }
 
     #[test]
     fn column_selector_parses_numbers_as_indices() {
-        assert_eq!("3".parse::<ColumnSelector>().unwrap(), ColumnSelector::Index(3));
-        assert_eq!("gyro_x".parse::<ColumnSelector>().unwrap(), ColumnSelector::Name("gyro_x".into()));
+        assert_eq!(
+            "3".parse::<ColumnSelector>().unwrap(),
+            ColumnSelector::Index(3)
+        );
+        assert_eq!(
+            "gyro_x".parse::<ColumnSelector>().unwrap(),
+            ColumnSelector::Name("gyro_x".into())
+        );
     }
 }

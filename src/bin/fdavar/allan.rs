@@ -53,7 +53,10 @@ fn configure(args: &Args) -> anyhow::Result<RunConfig> {
         bail!("--rate must be a positive number of Hz, got {}", args.rate);
     }
     if !(args.confidence > 0.0 && args.confidence < 1.0) {
-        bail!("--confidence must be a fraction strictly between 0 and 1, got {}", args.confidence);
+        bail!(
+            "--confidence must be a fraction strictly between 0 and 1, got {}",
+            args.confidence
+        );
     }
     let tau0 = 1.0 / args.rate;
     let values = text::read_column(&args.file, args.column.as_ref())
@@ -64,13 +67,23 @@ fn configure(args: &Args) -> anyhow::Result<RunConfig> {
         allan::naive::phase_from_rate(&values, tau0)
     };
     let factors = args.taus.factors(args.estimator.max_factor(phase.len()));
-    Ok(RunConfig { tau0, phase, factors })
+    Ok(RunConfig {
+        tau0,
+        phase,
+        factors,
+    })
 }
 
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let cfg = configure(args)?;
-    let estimates = allan::estimate(args.estimator, &cfg.phase, cfg.tau0, &cfg.factors, args.confidence)
-        .with_context(|| format!("{} of {}", args.estimator, args.file.display()))?;
+    let estimates = allan::estimate(
+        args.estimator,
+        &cfg.phase,
+        cfg.tau0,
+        &cfg.factors,
+        args.confidence,
+    )
+    .with_context(|| format!("{} of {}", args.estimator, args.file.display()))?;
     let kind = if args.phase { "phase" } else { "frequency" };
     let mut out = std::io::stdout().lock();
     if args.json {
@@ -106,10 +119,16 @@ fn write_table(
     estimates: &[Estimate],
 ) -> std::io::Result<()> {
     writeln!(out, "# STATISTICS FOR FILE: {}", args.file.display())?;
-    writeln!(out, "# {points} phase points, tau0 = {tau0:e} s, input: {kind}")?;
+    writeln!(
+        out,
+        "# {points} phase points, tau0 = {tau0:e} s, input: {kind}"
+    )?;
     writeln!(out, "# Sigma Type: {}", args.estimator.long_name())?;
     writeln!(out, "# Confidence Factor = {:.3}", args.confidence)?;
-    writeln!(out, "#  AF        Tau        #    Alpha  Min Sigma      Sigma         Max Sigma")?;
+    writeln!(
+        out,
+        "#  AF        Tau        #    Alpha  Min Sigma      Sigma         Max Sigma"
+    )?;
     for e in estimates {
         let p = &e.point;
         let alpha = e.alpha.map_or_else(|| "-".to_string(), |a| a.to_string());
@@ -141,12 +160,36 @@ mod tests {
 
     #[test]
     fn defaults_and_flags_parse() {
-        let a = Cli::try_parse_from(["x", "f.txt", "--rate", "100"]).unwrap().args;
-        assert_eq!((a.estimator, a.taus, a.phase, a.json), (Estimator::Oadev, TauGrid::PerDecade(10), false, false));
-        let a = Cli::try_parse_from(["x", "f", "--rate", "1", "--phase", "--taus", "all", "--estimator", "hdev", "--column", "gyro_x"])
+        let a = Cli::try_parse_from(["x", "f.txt", "--rate", "100"])
             .unwrap()
             .args;
-        assert_eq!((a.estimator, a.taus, a.column), (Estimator::Hdev, TauGrid::All, Some(ColumnSelector::Name("gyro_x".into()))));
+        assert_eq!(
+            (a.estimator, a.taus, a.phase, a.json),
+            (Estimator::Oadev, TauGrid::PerDecade(10), false, false)
+        );
+        let a = Cli::try_parse_from([
+            "x",
+            "f",
+            "--rate",
+            "1",
+            "--phase",
+            "--taus",
+            "all",
+            "--estimator",
+            "hdev",
+            "--column",
+            "gyro_x",
+        ])
+        .unwrap()
+        .args;
+        assert_eq!(
+            (a.estimator, a.taus, a.column),
+            (
+                Estimator::Hdev,
+                TauGrid::All,
+                Some(ColumnSelector::Name("gyro_x".into()))
+            )
+        );
         assert!(Cli::try_parse_from(["x", "f", "--rate", "1", "--phase", "--frequency"]).is_err());
         assert!(Cli::try_parse_from(["x", "f", "--rate", "1", "--estimator", "tdev"]).is_err());
     }

@@ -504,6 +504,33 @@ mod tests {
     }
 
     #[test]
+    fn a_non_finite_value_is_left_out_on_its_axis_only() {
+        let mut p = Pipeline::new(config(), &[Axis::GyroX, Axis::GyroY], None).unwrap();
+        let mut out = Output::default();
+        for k in 0..200i64 {
+            let mut s = sample(k, k * 10_000_000, 0.0);
+            if k == 100 {
+                s.gyro[1] = f64::NAN;
+            }
+            p.push(&s, &mut out);
+        }
+        p.finish(&mut out);
+        assert_eq!(p.irregularities().non_finite, 1);
+        let excluded: Vec<(Axis, u64)> = p.excluded_terms();
+        assert_eq!(excluded[0], (Axis::GyroX, 0));
+        assert!(excluded[1].1 > 0);
+        let at = |axis| {
+            out.rows
+                .iter()
+                .find(|r| r.axis == axis && r.row.index == 100)
+                .unwrap()
+                .row
+                .valid_samples
+        };
+        assert_eq!((at(Axis::GyroX), at(Axis::GyroY)), (31, 30));
+    }
+
+    #[test]
     fn same_input_same_output_whatever_the_chunking() {
         let samples: Vec<ImuSample> = (0..400)
             .map(|k| {

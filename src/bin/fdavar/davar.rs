@@ -10,6 +10,7 @@ use fdavar::pipeline::{AxisEvent, AxisRow, DavarConfig, Output, Pipeline, SigmaR
 use fdavar::signal::text::ColumnSelector;
 use fdavar::signal::{Axis, ImuSample};
 use serde::Serialize;
+use std::collections::BTreeMap;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
@@ -66,39 +67,37 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     };
     let mut pipeline = Pipeline::new(run.config.clone(), &run.axes, record)
         .context("cannot start the DAVAR pipeline")?;
+    let stdout = std::io::stdout();
+    let format = match (args.json, args.csv) {
+        (true, _) => Format::Json,
+        (_, true) => Format::Csv,
+        _ => Format::Summary,
+    };
+    let mut printer = Printer {
+        w: BufWriter::new(stdout.lock()),
+        format,
+        every: args.every,
+        printed: 0,
+        axes: BTreeMap::new(),
+    };
+    printer.begin().context("writing output")?;
+    // Rows are printed as they come: a long recording never holds its DAVAR surface in memory.
     let mut out = Output::default();
+    let mut events = Vec::new();
     for s in &run.samples {
         pipeline.push(s, &mut out);
+        for row in out.rows.drain(..) {
+            printer.row(&row).context("writing output")?;
+        }
+        events.append(&mut out.events);
     }
     pipeline.finish(&mut out);
-    let stdout = std::io::stdout();
-    let mut w = BufWriter::new(stdout.lock());
-    let rows: Vec<&AxisRow> = out
-        .rows
-        .iter()
-        .filter(|r| r.row.index % args.every == 0)
-        .collect();
-    let counts = pipeline.irregularities();
-    if args.json {
-        let doc = JsonDoc {
-            tau0: pipeline.tau0(),
-            irregularities: counts,
-            excluded_terms: pipeline
-                .excluded_terms()
-                .into_iter()
-                .map(|(axis, n)| (axis.name().to_string(), n))
-                .collect(),
-            rows: &rows,
-            events: &out.events,
-        };
-        serde_json::to_writer(&mut w, &doc).context("writing JSON")?;
-        writeln!(w).context("writing JSON")?;
-    } else if args.csv {
-        write_csv(&mut w, &rows).context("writing CSV")?;
-    } else {
-        write_summary(&mut w, &pipeline, &out).context("writing the summary")?;
+    for row in out.rows.drain(..) {
+        printer.row(&row).context("writing output")?;
     }
-    w.flush().context("writing output")?;
+    events.append(&mut out.events);
+    printer.end(&pipeline, &events).context("writing output")?;
+    let counts = pipeline.irregularities();
     let irregular = counts.gaps + counts.duplicates + counts.backwards + counts.non_finite;
     if irregular > 0 {
         eprintln!(
@@ -108,6 +107,126 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         return Ok(Outcome::Warnings);
     }
     Ok(Outcome::Ok)
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Format {
+    Json,
+    Csv,
+    Summary,
+}
+
+/// Per-axis facts for the summary.
+#[derive(Debug, Clone, Copy)]
+struct AxisSummary {
+    rows: u64,
+    first_s: f64,
+    last_s: f64,
+    window_min: usize,
+    window_max: usize,
+}
+
+/// Writes rows as they arrive, in the chosen format, and the closing part at the end.
+struct Printer<W: Write> {
+    w: W,
+    format: Format,
+    every: u64,
+    printed: u64,
+    axes: BTreeMap<Axis, AxisSummary>,
+}
+
+impl<W: Write> Printer<W> {
+    fn begin(&mut self) -> std::io::Result<()> {
+        match self.format {
+            Format::Json => write!(self.w, "{{\"rows\":["),
+            Format::Csv => writeln!(
+                self.w,
+                "axis,time_s,stamp_ns,index,window,f,f_target,sigma2_ref,m,tau_s,avar,adev,terms,edf,ci_low,ci_high"
+            ),
+            Format::Summary => Ok(()),
+        }
+    }
+
+    fn row(&mut self, r: &AxisRow) -> std::io::Result<()> {
+        let s = self.axes.entry(r.axis).or_insert(AxisSummary {
+            rows: 0,
+            first_s: r.time_s,
+            last_s: r.time_s,
+            window_min: r.row.window,
+            window_max: r.row.window,
+        });
+        s.rows += 1;
+        s.last_s = r.time_s;
+        s.window_min = s.window_min.min(r.row.window);
+        s.window_max = s.window_max.max(r.row.window);
+        if !r.row.index.is_multiple_of(self.every) {
+            return Ok(());
+        }
+        match self.format {
+            Format::Json => {
+                if self.printed > 0 {
+                    write!(self.w, ",")?;
+                }
+                serde_json::to_writer(&mut self.w, r)?;
+            }
+            Format::Csv => write_csv_row(&mut self.w, r)?,
+            Format::Summary => {}
+        }
+        self.printed += 1;
+        Ok(())
+    }
+
+    fn end(&mut self, p: &Pipeline, events: &[AxisEvent]) -> std::io::Result<()> {
+        match self.format {
+            Format::Json => {
+                let tail = JsonTail {
+                    events,
+                    tau0: p.tau0(),
+                    irregularities: p.irregularities(),
+                    excluded_terms: p
+                        .excluded_terms()
+                        .into_iter()
+                        .map(|(axis, n)| (axis.name().to_string(), n))
+                        .collect(),
+                };
+                let tail = serde_json::to_string(&tail)?;
+                // `tail` is an object; splice its members after the rows array.
+                writeln!(self.w, "],{}", &tail[1..])?;
+            }
+            Format::Csv => {}
+            Format::Summary => self.write_summary(p, events)?,
+        }
+        self.w.flush()
+    }
+
+    fn write_summary(&mut self, p: &Pipeline, events: &[AxisEvent]) -> std::io::Result<()> {
+        writeln!(self.w, "tau0: {:?} s", p.tau0())?;
+        for (axis, s) in &self.axes {
+            writeln!(
+                self.w,
+                "{axis}: {} rows, t = {:.3} .. {:.3} s, window {} .. {} samples",
+                s.rows, s.first_s, s.last_s, s.window_min, s.window_max
+            )?;
+            for e in events.iter().filter(|e| e.axis == *axis) {
+                let e = &e.event;
+                writeln!(
+                    self.w,
+                    "  noise changed from {:.3} s to {:.3} s (samples {} .. {}), level x{:.2}{}",
+                    e.start_s,
+                    e.end_s,
+                    e.start_index,
+                    e.end_index,
+                    e.factor,
+                    if e.closed {
+                        ""
+                    } else {
+                        " (still open at the end)"
+                    }
+                )?;
+            }
+        }
+        Ok(())
+    }
 }
 
 fn validate(args: &Args) -> anyhow::Result<RunConfig> {
@@ -190,83 +309,39 @@ fn is_bag(path: &Path) -> bool {
 }
 
 #[derive(Serialize)]
-struct JsonDoc<'a> {
+struct JsonTail<'a> {
+    events: &'a [AxisEvent],
     tau0: Option<f64>,
     irregularities: fdavar::signal::Irregularities,
-    excluded_terms: std::collections::BTreeMap<String, u64>,
-    rows: &'a [&'a AxisRow],
-    events: &'a [AxisEvent],
+    excluded_terms: BTreeMap<String, u64>,
 }
 
 fn opt(v: Option<f64>) -> String {
     v.map(|x| format!("{x:.9e}")).unwrap_or_default()
 }
 
-fn write_csv(w: &mut impl Write, rows: &[&AxisRow]) -> std::io::Result<()> {
-    writeln!(
-        w,
-        "axis,time_s,stamp_ns,index,window,f,f_target,sigma2_ref,m,tau_s,avar,adev,terms,edf,ci_low,ci_high"
-    )?;
-    for r in rows {
-        for p in &r.row.points {
-            writeln!(
-                w,
-                "{},{:.6},{},{},{},{},{},{},{},{:.6},{:.9e},{:.9e},{},{:.3},{:.9e},{:.9e}",
-                r.axis,
-                r.time_s,
-                r.stamp_ns,
-                r.row.index,
-                r.row.window,
-                opt(r.row.f),
-                opt(r.row.f_target),
-                opt(r.row.sigma2_ref),
-                p.m,
-                p.tau,
-                p.avar,
-                p.adev(),
-                p.terms,
-                p.edf,
-                p.ci_low,
-                p.ci_high
-            )?;
-        }
-    }
-    Ok(())
-}
-
-fn write_summary(w: &mut impl Write, p: &Pipeline, out: &Output) -> std::io::Result<()> {
-    writeln!(w, "tau0: {:?} s", p.tau0())?;
-    for axis in Axis::ALL {
-        let rows: Vec<&AxisRow> = out.rows.iter().filter(|r| r.axis == axis).collect();
-        let (Some(first), Some(last)) = (rows.first(), rows.last()) else {
-            continue;
-        };
-        let wmin = rows.iter().map(|r| r.row.window).min().unwrap_or(0);
-        let wmax = rows.iter().map(|r| r.row.window).max().unwrap_or(0);
+fn write_csv_row(w: &mut impl Write, r: &AxisRow) -> std::io::Result<()> {
+    for p in &r.row.points {
         writeln!(
             w,
-            "{axis}: {} rows, t = {:.3} .. {:.3} s, window {wmin} .. {wmax} samples",
-            rows.len(),
-            first.time_s,
-            last.time_s
+            "{},{:.6},{},{},{},{},{},{},{},{:.6},{:.9e},{:.9e},{},{:.3},{:.9e},{:.9e}",
+            r.axis,
+            r.time_s,
+            r.stamp_ns,
+            r.row.index,
+            r.row.window,
+            opt(r.row.f),
+            opt(r.row.f_target),
+            opt(r.row.sigma2_ref),
+            p.m,
+            p.tau,
+            p.avar,
+            p.adev(),
+            p.terms,
+            p.edf,
+            p.ci_low,
+            p.ci_high
         )?;
-        for e in out.events.iter().filter(|e| e.axis == axis) {
-            let e = &e.event;
-            writeln!(
-                w,
-                "  noise changed from {:.3} s to {:.3} s (samples {} .. {}), level x{:.2}{}",
-                e.start_s,
-                e.end_s,
-                e.start_index,
-                e.end_index,
-                e.factor,
-                if e.closed {
-                    ""
-                } else {
-                    " (still open at the end)"
-                }
-            )?;
-        }
     }
     Ok(())
 }

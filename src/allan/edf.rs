@@ -40,7 +40,7 @@ const J_MAX: f64 = 100.0;
 /// Use it for any estimate built from d-th differences of `n` phase points at averaging factor `m`
 /// under power-law noise S_y(f) ∝ f^α. Returns `None` when the combination is outside the algorithm
 /// (α + 2d ≤ 1, i.e. a noise too red for the difference order, α outside −4..=2, or fewer points
-/// than one difference needs).
+/// than one difference needs, N < L).
 ///
 /// # Formula
 /// ```text
@@ -78,7 +78,7 @@ pub fn greenhall_edf(alpha: i32, shape: VarianceShape, m: usize, n: usize) -> Op
     let f = if shape.modified { 1.0 } else { mf };
     let s = if shape.overlapping { mf } else { 1.0 };
     let l = mf / f + mf * df;
-    if (n as f64) < l + 1.0 {
+    if (n as f64) < l {
         return None;
     }
     let big_m = 1.0 + (s * (n as f64 - l) / mf).floor();
@@ -346,6 +346,12 @@ mod tests {
         assert!(greenhall_edf(-2, VarianceShape { d: 1, ..OADEV }, 1, 100).is_none());
         assert!(greenhall_edf(-3, OADEV, 1, 100).is_none());
         assert!(greenhall_edf(0, OADEV, 50, 100).is_none());
+        // The shortest record that has one term still has an EDF (M = 1).
+        let adev = VarianceShape { overlapping: false, ..OADEV };
+        for alpha in -2..=2 {
+            let e = greenhall_edf(alpha, adev, 10, 21).unwrap();
+            assert!(e > 0.0 && e.is_finite(), "α={alpha}: {e}");
+        }
         assert!(chi2_interval(1.0, 0.0, ONE_SIGMA).is_none());
         assert!(chi2_interval(1.0, 3.0, 1.0).is_none());
     }

@@ -121,7 +121,8 @@ fn write_table(
     writeln!(out, "# STATISTICS FOR FILE: {}", args.file.display())?;
     writeln!(
         out,
-        "# {points} phase points, tau0 = {tau0:e} s, input: {kind}"
+        "# {points} phase points, tau0 = {} s, input: {kind}",
+        sci(tau0)
     )?;
     writeln!(out, "# Sigma Type: {}", args.estimator.long_name())?;
     writeln!(out, "# Confidence Factor = {:.3}", args.confidence)?;
@@ -134,17 +135,29 @@ fn write_table(
         let alpha = e.alpha.map_or_else(|| "-".to_string(), |a| a.to_string());
         writeln!(
             out,
-            "{:>5}   {:.4e}   {:>6}   {:>2}   {:.4e}    {:.4e}     {:.4e}",
+            "{:>5}   {}   {:>6}   {:>2}   {}    {}     {}",
             p.m,
-            p.tau,
+            sci(p.tau),
             p.terms,
             alpha,
-            p.ci_low.sqrt(),
-            p.adev(),
-            p.ci_high.sqrt()
+            sci(p.ci_low.sqrt()),
+            sci(p.adev()),
+            sci(p.ci_high.sqrt())
         )?;
     }
     Ok(())
+}
+
+/// Stable32's number format: four decimals and a signed two-digit exponent, e.g. `2.9223e-01`.
+fn sci(v: f64) -> String {
+    let s = format!("{v:.4e}");
+    match s.split_once('e') {
+        Some((mantissa, exp)) => match exp.parse::<i32>() {
+            Ok(e) => format!("{mantissa}e{}{:02}", if e < 0 { '-' } else { '+' }, e.abs()),
+            Err(_) => s,
+        },
+        None => s, // NaN, inf
+    }
 }
 
 #[cfg(test)]
@@ -156,6 +169,14 @@ mod tests {
     struct Cli {
         #[command(flatten)]
         args: Args,
+    }
+
+    #[test]
+    fn numbers_print_like_stable32() {
+        assert_eq!(sci(0.29223), "2.9223e-01");
+        assert_eq!(sci(1000.0), "1.0000e+03");
+        assert_eq!(sci(3.3171e-10), "3.3171e-10");
+        assert_eq!(sci(f64::NAN), "NaN");
     }
 
     #[test]

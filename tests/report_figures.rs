@@ -543,6 +543,13 @@ fn window_bad_input_is_named() {
     ));
 
     let mut t = window_trace();
+    t.f_value[3] = f64::MAX;
+    assert!(matches!(
+        write_window_trace(&t, &stem),
+        Err(ReportError::UnplottableRange { .. })
+    ));
+
+    let mut t = window_trace();
     t.window_limits = Some((501, 171));
     assert!(matches!(
         write_window_trace(&t, &stem),
@@ -558,16 +565,23 @@ fn log_axis_spanning_too_many_decades_is_an_error() {
     fig.model.total[0].0 = 1e-200;
     let err = write_allan(&fig, &stem).unwrap_err();
     assert!(
-        matches!(
-            err,
-            ReportError::RangeTooWide {
-                max_decades: 40,
-                ..
-            }
-        ),
+        matches!(err, ReportError::UnplottableRange { .. }),
         "{err:?}"
     );
-    assert!(err.to_string().contains("`tau` spans 1e-200"), "{err}");
+    assert!(err.to_string().contains("`tau` from 1e-200"), "{err}");
+
+    // Near the ends of f64: the padded axis would overflow to ∞ (a hang in plotters' ticks).
+    let mut fig = allan_figure();
+    for p in &mut fig.measured {
+        p.dev *= 1e306;
+        p.dev_low *= 1e306;
+        p.dev_high *= 1e306;
+    }
+    let err = write_allan(&fig, &stem).unwrap_err();
+    assert!(
+        matches!(err, ReportError::UnplottableRange { .. }),
+        "{err:?}"
+    );
 }
 
 #[test]
@@ -648,7 +662,12 @@ fn any_value() -> impl Strategy<Value = f64> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+    // Seeded: the same 24 cases on every run (STYLE: seeded randomness in tests).
+    #![proptest_config(ProptestConfig {
+        cases: 24,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(0x5eed),
+        ..ProptestConfig::default()
+    })]
 
     #[test]
     fn allan_never_panics(
@@ -686,10 +705,10 @@ proptest! {
     }
 
     /// Valid but extreme: any magnitude a double holds draws, as long as each log axis spans at
-    /// most MAX_DECADES; wider spans are a RangeTooWide error (never a hang in the tick code).
+    /// most MAX_DECADES; wider spans are an UnplottableRange error (never a hang in the tick code).
     #[test]
     fn allan_extreme_valid_values_draw(
-        offset in (-280.0f64..280.0, -280.0f64..280.0),
+        offset in (-280.0f64..280.0, -278.0f64..278.0),
         points in prop::collection::vec((-19.0f64..19.0, -19.0f64..19.0, 0.0f64..3.0), 1..6),
         z in prop::collection::vec(-1e300f64..1e300, 1..6),
     ) {

@@ -77,6 +77,11 @@ fn units_and_aliases() {
 }
 
 proptest! {
+    #![proptest_config(ProptestConfig {
+        rng_seed: proptest::test_runner::RngSeed::Fixed(952),
+        ..ProptestConfig::default()
+    })]
+
     /// SI → display → SI returns the value to within a few ulps, for every coefficient and sensor.
     #[test]
     fn round_trip(exp in -12.0f64..3.0, mantissa in 1.0f64..10.0, c in 0usize..5, accel in any::<bool>()) {

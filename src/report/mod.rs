@@ -108,9 +108,10 @@ pub enum ReportError {
         /// The value found.
         value: f64,
     },
-    /// The values of a logarithmic axis span more decades than a figure can show.
-    #[error("{figure}: `{field}` spans {low:e} to {high:e}, more than {max_decades} decades for one log axis")]
-    RangeTooWide {
+    /// An axis range that cannot be drawn: a log axis over more than 40 decades, values beyond
+    /// 1e±300, or a linear span too small to resolve against the size of its values.
+    #[error("{figure}: `{field}` from {low:e} to {high:e} cannot be drawn: {why}")]
+    UnplottableRange {
         /// Which figure.
         figure: &'static str,
         /// Which field of the input.
@@ -119,8 +120,8 @@ pub enum ReportError {
         low: f64,
         /// Largest value.
         high: f64,
-        /// The most decades an axis may span.
-        max_decades: u32,
+        /// What is wrong with the range.
+        why: &'static str,
     },
     /// The output directory could not be created.
     #[error("cannot create directory {path}: {source}")]

@@ -290,18 +290,48 @@ fn text(size: u32) -> TextStyle<'static> {
 /// bound stops nonsense input (1e-300 next to 1e300) before plotters tries to tick it.
 pub const MAX_DECADES: u32 = 40;
 
-/// Checks that `lo..hi` (both > 0) fits on one log axis.
+/// Checks that `lo..hi` (both > 0) fits on one log axis: at most [`MAX_DECADES`], and inside
+/// 1e-300..1e300 so that padding and rounding to decades cannot overflow to 0 or ∞ (plotters'
+/// tick code never returns on an infinite range).
 fn check_log_span(figure: &'static str, field: &str, lo: f64, hi: f64) -> Result<(), ReportError> {
-    if (hi / lo).log10() > f64::from(MAX_DECADES) || !(hi / lo).is_finite() {
-        return Err(ReportError::RangeTooWide {
-            figure,
-            field: field.to_string(),
-            low: lo,
-            high: hi,
-            max_decades: MAX_DECADES,
-        });
-    }
-    Ok(())
+    let why = if lo < 1e-300 || hi > 1e300 {
+        "a log axis takes values within 1e-300..1e300"
+    } else if (hi / lo).log10() > f64::from(MAX_DECADES) {
+        "a log axis spans at most 40 decades"
+    } else {
+        return Ok(());
+    };
+    Err(ReportError::UnplottableRange {
+        figure,
+        field: field.to_string(),
+        low: lo,
+        high: hi,
+        why,
+    })
+}
+
+/// Checks that `lo..hi` can be a linear axis: within ±1e300 and a span of at least 10⁻⁹ of its
+/// magnitude (plotters' tick code never returns when a tick step is below one ulp).
+fn check_linear_span(
+    figure: &'static str,
+    field: &str,
+    lo: f64,
+    hi: f64,
+) -> Result<(), ReportError> {
+    let why = if lo.abs() > 1e300 || hi.abs() > 1e300 {
+        "a linear axis takes values within ±1e300"
+    } else if hi - lo < 1e-9 * lo.abs().max(hi.abs()) {
+        "the span is too small against the size of the values"
+    } else {
+        return Ok(());
+    };
+    Err(ReportError::UnplottableRange {
+        figure,
+        field: field.to_string(),
+        low: lo,
+        high: hi,
+        why,
+    })
 }
 
 /// A log-axis range for data spanning `lo..hi` (both > 0) that shows labelled decades.

@@ -115,6 +115,7 @@ impl<'a> Heatmap<'a> {
             );
         }
         t_edges.push(all_edges[n]);
+        check_linear_span(FIGURE, "times", t_edges[0], t_edges[columns])?;
         Ok(Heatmap {
             surface: s,
             t_edges,

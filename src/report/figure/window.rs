@@ -75,6 +75,9 @@ impl<'a> Trace<'a> {
                 field: "f_value (every value is NaN)".into(),
             });
         };
+        let (t0, t1) = (t.times[0], t.times[n - 1]);
+        check_linear_span(FIGURE, "times", t0, t1.max(t0 + 1e-9 * t0.abs().max(1.0)))?;
+        check_linear_span(FIGURE, "f_value", 0.0, f_hi.max(1e-12))?;
         let limits = t.window_limits.map(|(a, b)| [a as f64, b as f64]);
         let (w_lo, w_hi) = min_max(
             t.window
@@ -125,7 +128,9 @@ impl Figure for Trace<'_> {
         let body = draw_heading(root, heading)?;
         let (plots, legend) = body.split_horizontally(w - 230);
         let (top, bottom) = plots.split_vertically((h - 44) / 2);
-        let x = t.times[0]..t.times[t.times.len() - 1].max(t.times[0] + 1e-9);
+        // One analysis time still gets an axis: a nanosecond-relative width around it.
+        let t0 = t.times[0];
+        let x = t0..t.times[t.times.len() - 1].max(t0 + 1e-9 * t0.abs().max(1.0));
 
         let mut fc = ChartBuilder::on(&top)
             .margin(10)

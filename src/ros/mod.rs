@@ -1,1 +1,27 @@
 //! The ROS 2 node: the only module that names ros2-client types.
+//!
+//! ros2-client 0.12.1 gives DDS entities and parameter services but no command-line handling, no
+//! name resolution that works in the root namespace, and a `/clock` subscription of the wrong type.
+//! This module adds what the node needs on top, by ROS rules:
+//! - [`args`]: `--ros-args` (`-r`, `__ns`, `__node`, `-p`, `--params-file`, `--log-level`);
+//! - [`names`]: relative / private / absolute names and remaps, always absolute for ros2-client;
+//! - [`params`]: the node's parameter table, validators, parameter files;
+//! - [`monitor`]: input checks, counters, levels and the messages (no DDS, tested alone);
+//! - [`node`]: context (ROS_DOMAIN_ID), subscriptions, the bounded queue, the analysis thread,
+//!   publishers of `/diagnostics` and `~/<axis>/state`, `/clock` as `rosgraph_msgs/msg/Clock`.
+
+pub mod args;
+pub mod monitor;
+pub mod names;
+pub mod node;
+pub mod params;
+
+pub use node::{run, NodeConfig, NodeError};
+
+/// The F-DAVAR engine the node drives for `config`.
+///
+/// `None` while the crate has no streaming pipeline to offer (the node then publishes input checks
+/// and counters only, and says so in each status message).
+pub fn default_engine(_config: &NodeConfig) -> Option<Box<dyn monitor::RowEngine>> {
+    None
+}

@@ -1,0 +1,341 @@
+//! The node's parameters: one table of names, defaults, validators and whether a change applies live.
+//!
+//! Why one table: declaration (what `ros2 param list` shows), validation of `-p` / `--params-file`
+//! values at startup, validation of `ros2 param set` at run time, and the docs all read it, so they
+//! cannot disagree. A refused value leaves everything unchanged and returns the reason to the caller
+//! (`SetParameters` answers `successful=False, reason=…`).
+
+use super::args::yaml_to_param;
+use ros2_client::ParameterValue;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// One node parameter.
+#[derive(Debug)]
+pub struct ParamSpec {
+    /// Parameter name as `ros2 param` shows it.
+    pub name: &'static str,
+    /// One line for the docs.
+    pub doc: &'static str,
+    /// The default value (also fixes the type).
+    pub default: fn() -> ParameterValue,
+    /// Checks a candidate value (type and range); `Err` carries the reason.
+    pub validate: fn(&ParameterValue) -> Result<(), String>,
+    /// True when a change while running takes effect; false: read at startup only.
+    pub live: bool,
+}
+
+fn positive_double(v: &ParameterValue, max: f64) -> Result<(), String> {
+    match v {
+        ParameterValue::Double(x) if x.is_finite() && *x > 0.0 && *x <= max => Ok(()),
+        ParameterValue::Double(x) => Err(format!("must be in (0, {max}], got {x}")),
+        other => Err(format!("must be a double, got {other:?}")),
+    }
+}
+
+fn int_in(v: &ParameterValue, lo: i64, hi: i64) -> Result<(), String> {
+    match v {
+        ParameterValue::Integer(i) if (lo..=hi).contains(i) => Ok(()),
+        ParameterValue::Integer(i) => Err(format!("must be in [{lo}, {hi}], got {i}")),
+        other => Err(format!("must be an integer, got {other:?}")),
+    }
+}
+
+fn boolean(v: &ParameterValue) -> Result<(), String> {
+    match v {
+        ParameterValue::Boolean(_) => Ok(()),
+        other => Err(format!("must be a boolean, got {other:?}")),
+    }
+}
+
+fn string(v: &ParameterValue) -> Result<(), String> {
+    match v {
+        ParameterValue::String(_) => Ok(()),
+        other => Err(format!("must be a string, got {other:?}")),
+    }
+}
+
+/// Checks a model spec: comma-separated effect ids or aliases from the effect registry.
+fn model_spec(v: &ParameterValue) -> Result<(), String> {
+    let ParameterValue::String(spec) = v else {
+        return Err(format!("must be a string like \"N,B,K\", got {v:?}"));
+    };
+    let names: Vec<&str> = spec.split(',').map(str::trim).collect();
+    if names.iter().any(|n| n.is_empty()) {
+        return Err(format!("'{spec}' has an empty effect name"));
+    }
+    let unknown: Vec<&str> = names
+        .iter()
+        .copied()
+        .filter(|n| crate::model::effects::find(n).is_none())
+        .collect();
+    if unknown.is_empty() {
+        Ok(())
+    } else {
+        let known: Vec<String> = crate::model::effects::REGISTRY
+            .iter()
+            .map(|k| k.alias().map_or(k.id().to_string(), |a| format!("{} ({a})", k.id())))
+            .collect();
+        Err(format!(
+            "unknown effect(s) {unknown:?} in '{spec}'; known: [{}]",
+            known.join(", ")
+        ))
+    }
+}
+
+/// The node's parameter table, in the order of `ros2 param list` and the docs.
+pub static NODE_PARAMS: &[ParamSpec] = &[
+    ParamSpec {
+        name: "publish_rate_hz",
+        doc: "Rate of /diagnostics and ~/<axis>/state, Hz (0, 100].",
+        default: || ParameterValue::Double(1.0),
+        validate: |v| positive_double(v, 100.0),
+        live: true,
+    },
+    ParamSpec {
+        name: "stale_timeout_s",
+        doc: "No IMU message for this long (s) turns every status ERROR (stale input).",
+        default: || ParameterValue::Double(1.0),
+        validate: |v| positive_double(v, 3600.0),
+        live: true,
+    },
+    ParamSpec {
+        name: "queue_size",
+        doc: "Samples the analysis queue holds; when full, new samples are dropped and counted.",
+        default: || ParameterValue::Integer(10_000),
+        validate: |v| int_in(v, 1, 1_000_000),
+        live: false,
+    },
+    ParamSpec {
+        name: "qos.reliable",
+        doc: "Subscribe `imu` reliable (matches only reliable publishers); default best effort.",
+        default: || ParameterValue::Boolean(false),
+        validate: boolean,
+        live: false,
+    },
+    ParamSpec {
+        name: "qos.depth",
+        doc: "Keep-last depth of the `imu` subscription.",
+        default: || ParameterValue::Integer(100),
+        validate: |v| int_in(v, 1, 100_000),
+        live: false,
+    },
+    ParamSpec {
+        name: "temperature",
+        doc: "Also subscribe `temperature` (sensor_msgs/msg/Temperature).",
+        default: || ParameterValue::Boolean(false),
+        validate: boolean,
+        live: false,
+    },
+    ParamSpec {
+        name: "use_sim_time",
+        doc: "Take the node's time from /clock (rosgraph_msgs/msg/Clock).",
+        default: || ParameterValue::Boolean(false),
+        validate: boolean,
+        live: false,
+    },
+    ParamSpec {
+        name: "model",
+        doc: "Noise model fitted to each row: effect ids or aliases, comma-separated (e.g. N,B,K).",
+        default: || ParameterValue::String("N,B,K".to_string()),
+        validate: model_spec,
+        live: true,
+    },
+    ParamSpec {
+        name: "dump_json",
+        doc: "If not empty, a file the node appends one JSON line per analysis row to.",
+        default: || ParameterValue::String(String::new()),
+        validate: string,
+        live: false,
+    },
+];
+
+/// A parameter value refused at startup or at run time.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ParamError {
+    /// No such parameter.
+    #[error("unknown parameter '{name}' (see `ros2 param list`)")]
+    Unknown {
+        /// The name given.
+        name: String,
+    },
+    /// The validator refused the value.
+    #[error("parameter '{name}': {reason}")]
+    Invalid {
+        /// Parameter name.
+        name: String,
+        /// The validator's reason.
+        reason: String,
+    },
+    /// A parameter file could not be read.
+    #[error("parameter file {path}: {reason}")]
+    File {
+        /// The file.
+        path: String,
+        /// What went wrong.
+        reason: String,
+    },
+}
+
+/// Looks a parameter up in [`NODE_PARAMS`].
+pub fn spec(name: &str) -> Option<&'static ParamSpec> {
+    NODE_PARAMS.iter().find(|p| p.name == name)
+}
+
+/// Validates one (name, value) pair against the table; integers are accepted for doubles.
+///
+/// Returns the value to store (an integer given for a double parameter becomes a double, as a
+/// YAML `2` for `publish_rate_hz` means 2.0).
+///
+/// # Errors
+/// [`ParamError::Unknown`] or [`ParamError::Invalid`] with the validator's reason.
+pub fn validate(name: &str, value: &ParameterValue) -> Result<ParameterValue, ParamError> {
+    let spec = spec(name).ok_or_else(|| ParamError::Unknown {
+        name: name.to_string(),
+    })?;
+    let value = match (value, (spec.default)()) {
+        (ParameterValue::Integer(i), ParameterValue::Double(_)) => ParameterValue::Double(*i as f64),
+        (v, _) => v.clone(),
+    };
+    (spec.validate)(&value).map_err(|reason| ParamError::Invalid {
+        name: name.to_string(),
+        reason,
+    })?;
+    Ok(value)
+}
+
+/// Reads the `ros__parameters` for `node_fqn` (e.g. `/fdavar`) from a ROS 2 parameter YAML file.
+///
+/// Sections apply in file order when their key is `/**`, the node's base name, or its fully
+/// qualified name (with or without the leading slash); nested maps flatten to dotted names
+/// (`qos: {reliable: true}` → `qos.reliable`).
+///
+/// # Errors
+/// [`ParamError::File`] when the file is unreadable or not a map of maps.
+pub fn read_params_file(
+    path: &Path,
+    node_fqn: &str,
+) -> Result<Vec<(String, ParameterValue)>, ParamError> {
+    let file_err = |reason: String| ParamError::File {
+        path: path.display().to_string(),
+        reason,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| file_err(e.to_string()))?;
+    let doc: serde_yaml_ng::Value =
+        serde_yaml_ng::from_str(&text).map_err(|e| file_err(e.to_string()))?;
+    let serde_yaml_ng::Value::Mapping(nodes) = doc else {
+        return Err(file_err("the top level is not a map of node names".to_string()));
+    };
+    let base = node_fqn.rsplit('/').next().unwrap_or(node_fqn);
+    let mut out = Vec::new();
+    for (key, section) in nodes {
+        let key = key.as_str().unwrap_or_default();
+        let applies = key == "/**"
+            || key == base
+            || key == node_fqn
+            || key.trim_start_matches('/') == node_fqn.trim_start_matches('/');
+        if !applies {
+            continue;
+        }
+        let Some(params) = section.get("ros__parameters") else {
+            continue;
+        };
+        flatten(params, "", &mut out).map_err(file_err)?;
+    }
+    Ok(out)
+}
+
+fn flatten(
+    v: &serde_yaml_ng::Value,
+    prefix: &str,
+    out: &mut Vec<(String, ParameterValue)>,
+) -> Result<(), String> {
+    let serde_yaml_ng::Value::Mapping(map) = v else {
+        return Err(format!("'{prefix}' ros__parameters is not a map"));
+    };
+    for (k, v) in map {
+        let k = k.as_str().ok_or("a parameter name is not a string")?;
+        let name = if prefix.is_empty() { k.to_string() } else { format!("{prefix}.{k}") };
+        if v.is_mapping() {
+            flatten(v, &name, out)?;
+        } else {
+            let value = yaml_to_param(v).map_err(|r| format!("parameter '{name}' {r}"))?;
+            out.push((name, value));
+        }
+    }
+    Ok(())
+}
+
+/// The node's parameter values: the defaults, then parameter files, then `-p`, each validated.
+///
+/// Parameters the table does not know are skipped when they come from a file (a shared
+/// `launch_params/*.yaml` may hold keys for other tools) but refused from `-p`.
+///
+/// # Errors
+/// The first [`ParamError`]: startup configuration errors stop the node.
+pub fn startup_values(
+    files: &[std::path::PathBuf],
+    overrides: &[(String, ParameterValue)],
+    node_fqn: &str,
+) -> Result<BTreeMap<String, ParameterValue>, ParamError> {
+    let mut values: BTreeMap<String, ParameterValue> = NODE_PARAMS
+        .iter()
+        .map(|p| (p.name.to_string(), (p.default)()))
+        .collect();
+    for file in files {
+        for (name, value) in read_params_file(file, node_fqn)? {
+            if spec(&name).is_some() {
+                values.insert(name.clone(), validate(&name, &value)?);
+            }
+        }
+    }
+    for (name, value) in overrides {
+        values.insert(name.clone(), validate(name, value)?);
+    }
+    Ok(values)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn invalid_values_are_refused_with_a_reason() {
+        let e = validate("publish_rate_hz", &ParameterValue::Double(-1.0)).unwrap_err();
+        assert!(e.to_string().contains("(0, 100]"), "{e}");
+        assert!(validate("publish_rate_hz", &ParameterValue::String("x".into())).is_err());
+        assert!(validate("queue_size", &ParameterValue::Integer(0)).is_err());
+        assert!(validate("no_such", &ParameterValue::Integer(0)).is_err());
+        let e = validate("model", &ParameterValue::String("N,,K".into())).unwrap_err();
+        assert!(e.to_string().contains("empty"), "{e}");
+        let e = validate("model", &ParameterValue::String("N,warp_drive".into())).unwrap_err();
+        assert!(e.to_string().contains("warp_drive"), "{e}");
+    }
+
+    #[test]
+    fn integers_are_accepted_for_doubles() {
+        assert_eq!(
+            validate("publish_rate_hz", &ParameterValue::Integer(2)).unwrap(),
+            ParameterValue::Double(2.0)
+        );
+    }
+
+    #[test]
+    fn params_files_apply_by_node_name_and_flatten() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.yaml");
+        std::fs::write(
+            &path,
+            "/**:\n  ros__parameters:\n    publish_rate_hz: 2\nother:\n  ros__parameters:\n    queue_size: 5\n\
+             fdavar:\n  ros__parameters:\n    qos:\n      reliable: true\n    unrelated_key: 3\n",
+        )
+        .unwrap();
+        let v = startup_values(&[path], &[("queue_size".into(), ParameterValue::Integer(7))], "/fdavar")
+            .unwrap();
+        assert_eq!(v["publish_rate_hz"], ParameterValue::Double(2.0));
+        assert_eq!(v["qos.reliable"], ParameterValue::Boolean(true));
+        assert_eq!(v["queue_size"], ParameterValue::Integer(7));
+        assert!(!v.contains_key("unrelated_key"));
+    }
+}

@@ -1,0 +1,171 @@
+//! Interop tests of `fdavar_node` against a real ROS 2 peer: rclpy + Fast DDS from PyPI
+//! (tests/ros/peer.py). Each test runs the node on a ROS_DOMAIN_ID of its own, so tests in parallel
+//! never see each other, and every wait is bounded.
+//!
+//! Python comes from `FDAVAR_PYTHON` (default `.venv/bin/python`, made by `.ci/setup-ros.sh`). When
+//! it or rclpy is missing the test prints why and passes, unless `FDAVAR_REQUIRE_PYTHON=1`.
+#![cfg(feature = "ros")]
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+fn crate_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The Python with rclpy, or None (skip) with the reason printed.
+fn python() -> Option<PathBuf> {
+    let path = std::env::var_os("FDAVAR_PYTHON")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| crate_root().join(".venv/bin/python"));
+    let ok = Command::new(&path)
+        .args(["-c", "import rclpy, sensor_msgs.msg, diagnostic_msgs.msg, rosgraph_msgs.msg"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if ok {
+        return Some(path);
+    }
+    let why = format!("{} cannot import rclpy (run .ci/setup-ros.sh .venv)", path.display());
+    if std::env::var("FDAVAR_REQUIRE_PYTHON").as_deref() == Ok("1") {
+        panic!("{why}");
+    }
+    eprintln!("skipped: {why}");
+    None
+}
+
+/// The colcon install tree built by .ci/setup-ros.sh, if present (gives fdavar_msgs to Python).
+fn colcon_install() -> Option<PathBuf> {
+    let p = crate_root().join("target/colcon_ws/install");
+    p.join("fdavar_msgs").is_dir().then_some(p)
+}
+
+/// A child process killed when the test ends, whatever happens.
+struct Killed(Child);
+
+impl Drop for Killed {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn start_node(domain: u16, ros_args: &[&str]) -> Killed {
+    let child = Command::new(env!("CARGO_BIN_EXE_fdavar_node"))
+        .arg("--ros-args")
+        .args(ros_args)
+        .env("ROS_DOMAIN_ID", domain.to_string())
+        .stdout(Stdio::null())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("spawn fdavar_node");
+    Killed(child)
+}
+
+/// Runs a peer scenario and returns its JSON verdict; panics with the peer's words on failure.
+fn peer(python: &Path, domain: u16, scenario: &str, timeout: Duration) -> serde_json::Value {
+    let mut cmd = Command::new(python);
+    cmd.arg(crate_root().join("tests/ros/peer.py"))
+        .arg(scenario)
+        .env("ROS_DOMAIN_ID", domain.to_string())
+        .env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    if let Some(install) = colcon_install() {
+        let prefix = install.join("fdavar_msgs");
+        let py = std::fs::read_dir(prefix.join("lib"))
+            .into_iter()
+            .flatten()
+            .flatten()
+            .map(|e| e.path().join("site-packages"))
+            .find(|p| p.is_dir());
+        if let Some(py) = py {
+            let join = |var: &str, add: &Path| {
+                let old = std::env::var(var).unwrap_or_default();
+                format!("{}:{old}", add.display())
+            };
+            cmd.env("PYTHONPATH", join("PYTHONPATH", &py));
+            cmd.env("LD_LIBRARY_PATH", join("LD_LIBRARY_PATH", &prefix.join("lib")));
+            cmd.env("AMENT_PREFIX_PATH", join("AMENT_PREFIX_PATH", &prefix));
+        }
+    }
+    let mut child = Killed(cmd.spawn().expect("spawn python"));
+    let start = Instant::now();
+    loop {
+        if child.0.try_wait().expect("wait python").is_some() {
+            break;
+        }
+        assert!(start.elapsed() < timeout, "peer {scenario} did not finish within {timeout:?}");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let Killed(c) = &mut child;
+    let mut out = String::new();
+    let mut err = String::new();
+    use std::io::Read;
+    c.stdout.take().unwrap().read_to_string(&mut out).unwrap();
+    c.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    let last = out.lines().last().unwrap_or_default();
+    let verdict: serde_json::Value = serde_json::from_str(last)
+        .unwrap_or_else(|_| panic!("peer {scenario} printed no verdict.\nstdout:\n{out}\nstderr:\n{err}"));
+    assert!(verdict["ok"].as_bool().unwrap_or(false), "peer {scenario} failed: {verdict}\nstderr:\n{err}");
+    verdict
+}
+
+#[test]
+fn rclpy_imu_reaches_the_node_and_diagnostics_come_back() {
+    let Some(py) = python() else { return };
+    let _node = start_node(61, &["-p", "publish_rate_hz:=2.0"]);
+    let v = peer(&py, 61, "diagnostics", Duration::from_secs(60));
+    eprintln!("diagnostics: {v}");
+}
+
+#[test]
+fn parameters_are_listed_set_and_refused_through_the_ros_services() {
+    let Some(py) = python() else { return };
+    let _node = start_node(62, &[]);
+    let v = peer(&py, 62, "params", Duration::from_secs(60));
+    eprintln!("params: {v}");
+}
+
+#[test]
+fn sim_time_from_clock_drives_the_node() {
+    let Some(py) = python() else { return };
+    let _node = start_node(63, &["-p", "use_sim_time:=true", "-p", "publish_rate_hz:=5.0"]);
+    let v = peer(&py, 63, "sim_time", Duration::from_secs(60));
+    eprintln!("sim_time: {v}");
+}
+
+#[test]
+fn bad_input_is_counted_and_silence_is_stale() {
+    let Some(py) = python() else { return };
+    let _node = start_node(64, &["-p", "publish_rate_hz:=4.0", "-p", "stale_timeout_s:=1.0"]);
+    let v = peer(&py, 64, "bad_input", Duration::from_secs(60));
+    eprintln!("bad_input: {v}");
+}
+
+#[test]
+fn startup_config_errors_exit_non_zero_with_a_reason() {
+    for (args, want) in [
+        (vec!["-p", "publish_rate_hz:=-1.0"], "publish_rate_hz"),
+        (vec!["-r", "__node:=9bad"], "9bad"),
+        (vec!["--bogus"], "bogus"),
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_fdavar_node"))
+            .arg("--ros-args")
+            .args(&args)
+            .env("ROS_DOMAIN_ID", "65")
+            .output()
+            .expect("run fdavar_node");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert!(err.contains(want), "{args:?}: {err}");
+    }
+    let out = Command::new(env!("CARGO_BIN_EXE_fdavar_node"))
+        .env("ROS_DOMAIN_ID", "999")
+        .output()
+        .expect("run fdavar_node");
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("ROS_DOMAIN_ID"));
+}

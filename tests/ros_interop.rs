@@ -65,7 +65,13 @@ fn start_node(domain: u16, ros_args: &[&str]) -> Killed {
 }
 
 /// Runs a peer scenario and returns its JSON verdict; panics with the peer's words on failure.
-fn peer(python: &Path, domain: u16, scenario: &str, timeout: Duration) -> serde_json::Value {
+fn peer(
+    python: &Path,
+    domain: u16,
+    scenario: &str,
+    timeout: Duration,
+    mut watch: Option<&mut Watch>,
+) -> serde_json::Value {
     let mut cmd = Command::new(python);
     cmd.arg(crate_root().join("tests/ros/peer.py"))
         .arg(scenario)
@@ -92,32 +98,71 @@ fn peer(python: &Path, domain: u16, scenario: &str, timeout: Duration) -> serde_
         }
     }
     let mut child = Killed(cmd.spawn().expect("spawn python"));
+    // Lines arrive on a channel so that the node can be watched while the peer runs.
+    let stdout = child.0.stdout.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel::<String>();
+    std::thread::spawn(move || {
+        use std::io::BufRead;
+        for line in std::io::BufReader::new(stdout).lines().map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    let mut stderr = child.0.stderr.take().unwrap();
+    let err_reader = std::thread::spawn(move || {
+        let mut err = String::new();
+        use std::io::Read;
+        let _ = stderr.read_to_string(&mut err);
+        err
+    });
     let start = Instant::now();
+    let mut lines = Vec::new();
+    let mut flooding = false;
     loop {
-        if child.0.try_wait().expect("wait python").is_some() {
-            break;
+        match rx.recv_timeout(Duration::from_millis(100)) {
+            Ok(line) => {
+                flooding = match line.as_str() {
+                    "flood-start" => true,
+                    "flood-end" => false,
+                    _ => flooding,
+                };
+                lines.push(line);
+            }
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => break,
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+        }
+        if let (true, Some(pid)) = (flooding, watch.as_deref_mut()) {
+            pid.rss_kb.extend(rss_kb(pid.pid));
         }
         assert!(start.elapsed() < timeout, "peer {scenario} did not finish within {timeout:?}");
-        std::thread::sleep(Duration::from_millis(100));
     }
-    let Killed(c) = &mut child;
-    let mut out = String::new();
-    let mut err = String::new();
-    use std::io::Read;
-    c.stdout.take().unwrap().read_to_string(&mut out).unwrap();
-    c.stderr.take().unwrap().read_to_string(&mut err).unwrap();
-    let last = out.lines().last().unwrap_or_default();
-    let verdict: serde_json::Value = serde_json::from_str(last)
-        .unwrap_or_else(|_| panic!("peer {scenario} printed no verdict.\nstdout:\n{out}\nstderr:\n{err}"));
+    let _ = child.0.wait();
+    let err = err_reader.join().unwrap_or_default();
+    let last = lines.last().cloned().unwrap_or_default();
+    let verdict: serde_json::Value = serde_json::from_str(&last).unwrap_or_else(|_| {
+        panic!("peer {scenario} printed no verdict.\nstdout:\n{}\nstderr:\n{err}", lines.join("\n"))
+    });
     assert!(verdict["ok"].as_bool().unwrap_or(false), "peer {scenario} failed: {verdict}\nstderr:\n{err}");
     verdict
+}
+
+/// A process whose resident memory is sampled while the peer floods it.
+struct Watch {
+    pid: u32,
+    rss_kb: Vec<u64>,
+}
+
+/// Resident set size of a process, kB, from /proc.
+fn rss_kb(pid: u32) -> Option<u64> {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
 }
 
 #[test]
 fn rclpy_imu_reaches_the_node_and_diagnostics_come_back() {
     let Some(py) = python() else { return };
     let _node = start_node(61, &["-p", "publish_rate_hz:=2.0"]);
-    let v = peer(&py, 61, "diagnostics", Duration::from_secs(60));
+    let v = peer(&py, 61, "diagnostics", Duration::from_secs(60), None);
     eprintln!("diagnostics: {v}");
 }
 
@@ -125,7 +170,7 @@ fn rclpy_imu_reaches_the_node_and_diagnostics_come_back() {
 fn parameters_are_listed_set_and_refused_through_the_ros_services() {
     let Some(py) = python() else { return };
     let _node = start_node(62, &[]);
-    let v = peer(&py, 62, "params", Duration::from_secs(60));
+    let v = peer(&py, 62, "params", Duration::from_secs(60), None);
     eprintln!("params: {v}");
 }
 
@@ -133,7 +178,7 @@ fn parameters_are_listed_set_and_refused_through_the_ros_services() {
 fn sim_time_from_clock_drives_the_node() {
     let Some(py) = python() else { return };
     let _node = start_node(63, &["-p", "use_sim_time:=true", "-p", "publish_rate_hz:=5.0"]);
-    let v = peer(&py, 63, "sim_time", Duration::from_secs(60));
+    let v = peer(&py, 63, "sim_time", Duration::from_secs(60), None);
     eprintln!("sim_time: {v}");
 }
 
@@ -141,7 +186,7 @@ fn sim_time_from_clock_drives_the_node() {
 fn bad_input_is_counted_and_silence_is_stale() {
     let Some(py) = python() else { return };
     let _node = start_node(64, &["-p", "publish_rate_hz:=4.0", "-p", "stale_timeout_s:=1.0"]);
-    let v = peer(&py, 64, "bad_input", Duration::from_secs(60));
+    let v = peer(&py, 64, "bad_input", Duration::from_secs(60), None);
     eprintln!("bad_input: {v}");
 }
 
@@ -168,4 +213,21 @@ fn startup_config_errors_exit_non_zero_with_a_reason() {
         .expect("run fdavar_node");
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("ROS_DOMAIN_ID"));
+}
+
+#[test]
+fn a_flood_is_dropped_and_counted_with_bounded_memory() {
+    let Some(py) = python() else { return };
+    let node = start_node(66, &["-p", "queue_size:=64", "-p", "publish_rate_hz:=4.0"]);
+    let mut watch = Watch {
+        pid: node.0.id(),
+        rss_kb: Vec::new(),
+    };
+    let v = peer(&py, 66, "flood", Duration::from_secs(90), Some(&mut watch));
+    eprintln!("flood: {v}; node RSS during the flood (kB): {:?}", watch.rss_kb);
+    let (first, max) = (watch.rss_kb[0], *watch.rss_kb.iter().max().unwrap());
+    // Bounded: the queue holds 64 samples and the DDS reader keeps the last 100 messages, so the
+    // flood may not grow the node by more than allocator noise (a few MB), whatever its length.
+    assert!(max - first < 16 * 1024, "RSS grew from {first} kB to {max} kB during the flood");
+    assert!(v["sent"].as_u64().unwrap() >= 2000, "the peer did not flood: {v}");
 }

@@ -39,7 +39,7 @@ pub enum BadInput {
     Backwards,
     /// The same stamp as the previous one.
     Duplicate,
-    /// A zero stamp (the receive time is used instead).
+    /// A zero stamp in a stream whose stamps are not zero (dropped).
     ZeroStamp,
     /// An interval longer than 1.5 τ0.
     Gap,
@@ -56,7 +56,7 @@ impl BadInput {
             BadInput::NonFinite => "NaN/Inf value in an IMU message: that axis's sample is dropped",
             BadInput::Backwards => "IMU stamp went backwards: sample dropped",
             BadInput::Duplicate => "duplicate IMU stamp: sample dropped",
-            BadInput::ZeroStamp => "zero IMU header stamp: using the receive time instead",
+            BadInput::ZeroStamp => "zero IMU header stamp in a stamped stream: sample dropped",
             BadInput::Gap => "gap in IMU stamps (> 1.5 periods): Allan terms across it are left out",
             BadInput::RateChange => "IMU rate changed by more than 20 % from the nominal rate",
             BadInput::QueueFull => "analysis queue full: IMU samples dropped (input faster than analysis)",
@@ -125,6 +125,9 @@ pub struct Monitor {
     frame_id: String,
     /// Bad inputs since the last publish, per axis, for the level.
     recent_non_finite: [u64; 6],
+    /// True when the stream's stamps are zero and the receive time stands in (set by the first
+    /// message).
+    receive_time_stamps: Option<bool>,
     /// Rows kept for [`Monitor::drain_rows`] when recording is on.
     new_rows: Option<Vec<AxisState>>,
 }
@@ -148,6 +151,7 @@ impl Monitor {
             frame_id: String::new(),
             recent_non_finite: [0; 6],
             new_rows: None,
+            receive_time_stamps: None,
         }
     }
 
@@ -206,10 +210,16 @@ impl Monitor {
         if self.frame_id != frame_id {
             self.frame_id = frame_id.to_string();
         }
-        if sample.stamp_ns == 0 {
+        // The clock of the stream is chosen by its first message: the sensor's stamps, or the
+        // receive time when the driver leaves stamps zero (DESIGN §1). A zero stamp inside a
+        // stamped stream cannot be placed on the sensor clock: it is dropped and counted.
+        let by_receive_time = *self.receive_time_stamps.get_or_insert(sample.stamp_ns == 0);
+        if by_receive_time {
+            sample.stamp_ns = receive_ns;
+        } else if sample.stamp_ns == 0 {
             self.counters.zero_stamps += 1;
             log.extend(self.note(BadInput::ZeroStamp));
-            sample.stamp_ns = receive_ns;
+            return log;
         }
         let values = sample.values();
         if values.iter().any(|v| !v.is_finite()) {
@@ -435,7 +445,7 @@ mod tests {
             logged.extend(m.push(sample(t + 5 * MS, f64::NAN), "imu", t)); // non-finite
             logged.extend(m.push(sample(t, 0.1), "imu", t)); // duplicate
             logged.extend(m.push(sample(t - 50 * MS, 0.1), "imu", t)); // backwards
-            logged.extend(m.push(sample(0, 0.1), "imu", t + 10 * MS)); // zero stamp → receive time
+            logged.extend(m.push(sample(0, 0.1), "imu", t + 10 * MS)); // zero stamp: dropped
             t += 10 * MS;
             t += 100 * MS; // gap
             logged.extend(m.push(sample(t, 0.1), "imu", t));
@@ -447,10 +457,20 @@ mod tests {
         assert_eq!(c.zero_stamps, 2);
         assert_eq!(c.gaps, 2);
         assert_eq!(logged.len(), 5, "each kind once: {logged:?}");
-        // Only good samples reached the engine: 100 + 2 zero-stamped + 2 after gaps.
-        assert_eq!(c.samples, 104);
-        assert_eq!(m.drain_rows().len(), 104);
+        // Only good samples reached the engine: 100 + 2 after gaps.
+        assert_eq!(c.samples, 102);
+        assert_eq!(m.drain_rows().len(), 102);
         assert!(m.drain_rows().is_empty());
+    }
+
+    #[test]
+    fn a_stream_of_zero_stamps_runs_on_the_receive_time() {
+        let mut m = Monitor::new(MonitorSettings::default(), None);
+        for k in 1..=100 {
+            assert!(m.push(sample(0, 0.0), "imu", k * 10 * MS).is_empty());
+        }
+        let c = m.counters();
+        assert_eq!((c.samples, c.zero_stamps, c.duplicates), (100, 0, 0));
     }
 
     #[test]

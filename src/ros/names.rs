@@ -83,6 +83,12 @@ pub fn expand(name: &str, namespace: &str, node: &str) -> Result<String, NameErr
             format!("{base}/{rest}")
         }
     };
+    if name.is_empty() {
+        return Err(NameError::Invalid {
+            name: String::new(),
+            reason: "empty",
+        });
+    }
     let full = if name.starts_with('/') {
         name.to_string()
     } else if let Some(rest) = name.strip_prefix('~') {

@@ -236,10 +236,17 @@ pub fn run(
     // Parameter changes travel from the spinner's set action to the analysis thread.
     let (param_tx, param_rx) = mpsc::channel::<(String, ParameterValue)>();
     let param_tx = std::sync::Mutex::new(param_tx);
+    // ros2-client also runs the validator and the set action on the declared (startup) values,
+    // which were checked when read (defaults are trusted): until the node exists, both accept.
+    let running = Arc::new(AtomicBool::new(false));
+    let (validating, setting) = (Arc::clone(&running), Arc::clone(&running));
     let mut options = NodeOptions::new()
         .enable_rosout(true)
         .start_parameter_services(true)
-        .parameter_validator(Box::new(|name, value| {
+        .parameter_validator(Box::new(move |name, value| {
+            if !validating.load(Ordering::Acquire) {
+                return Ok(());
+            }
             let spec = params::spec(name).ok_or_else(|| format!("unknown parameter '{name}'"))?;
             if !spec.live {
                 return Err(format!("'{name}' is read at startup only; restart the node to change it"));
@@ -247,6 +254,9 @@ pub fn run(
             params::validate(name, value).map(|_| ()).map_err(|e| e.to_string())
         }))
         .parameter_set_action(Box::new(move |name, value| {
+            if !setting.load(Ordering::Acquire) {
+                return Ok(());
+            }
             let value = params::validate(name, value).map_err(|e| e.to_string())?;
             param_tx
                 .lock()
@@ -264,6 +274,7 @@ pub fn run(
             options,
         )
         .map_err(|e| ros_err("node")(format!("{e:?}")))?;
+    running.store(true, Ordering::Release);
 
     let depth = usize::try_from(config.int("qos.depth")).unwrap_or(100);
     let imu_qos = if config.flag("qos.reliable") {

@@ -105,6 +105,11 @@ def status(array, axis):
     return None
 
 
+def level(s):
+    """DiagnosticStatus.level is a `byte`: rclpy gives bytes of length 1."""
+    return s.level[0] if isinstance(s.level, (bytes, bytearray)) else int(s.level)
+
+
 def kv(s, key):
     for v in s.values:
         if v.key == key:
@@ -137,7 +142,7 @@ def scenario_diagnostics(peer):
     gx = status(last, "gyro_x")
     samples = int(kv(gx, "samples"))
     rate = float(kv(gx, "rate_hz") or "nan")
-    result = dict(samples=samples, rate_hz=rate, level=gx.level, message=gx.message,
+    result = dict(samples=samples, rate_hz=rate, level=level(gx), message=gx.message,
                   hardware_id=gx.hardware_id, typed=len(typed), have_typed=have_typed,
                   window_length=kv(gx, "window_length"), f_value=kv(gx, "f_value"))
     if samples < 400:
@@ -250,9 +255,34 @@ def scenario_bad_input(peer):
     # Silence: the node must report stale input (ERROR) within stale_timeout_s + a publish period.
     peer.diagnostics.clear()
     stale = peer.spin_until(lambda: any(
-        status(d, "gyro_x").level == 2 and "stale" in status(d, "gyro_x").message
+        level(status(d, "gyro_x")) == 2 and "stale" in status(d, "gyro_x").message
         for d in peer.diagnostics), 6.0)
     finish(stale, "" if stale else "silence not reported as stale ERROR", counts=counts)
+
+
+def scenario_flood(peer):
+    """Publish as fast as rclpy can (≫ 10× a 200 Hz IMU) for 5 s; report what was sent and counted."""
+    if not peer.wait_for_node() or not peer.wait_for_match():
+        finish(False, "fdavar_node not up / not matched")
+    print("flood-start", flush=True)  # the Rust test samples the node's RSS here
+    sent = 0
+    end = time.monotonic() + 5.0
+    while time.monotonic() < end:
+        for _ in range(100):
+            peer.stamp_ns += 500_000
+            peer.imu_pub.publish(peer.imu(peer.stamp_ns))
+            sent += 1
+        rclpy.spin_once(peer, timeout_sec=0.0)
+    print("flood-end", flush=True)
+    peer.diagnostics.clear()
+    peer.spin_until(lambda: len(peer.diagnostics) >= 2, 5.0)
+    if not peer.diagnostics:
+        finish(False, "no /diagnostics after the flood")
+    gx = status(peer.diagnostics[-1], "gyro_x")
+    samples, drops = int(kv(gx, "samples")), int(kv(gx, "drops"))
+    ok = samples > 0 and samples + drops <= sent
+    finish(ok, "" if ok else "counts do not add up", sent=sent, samples=samples, drops=drops,
+           rate_s=sent / 5.0)
 
 
 def main():
@@ -260,7 +290,7 @@ def main():
     peer = Peer()
     scenario = sys.argv[1]
     {"diagnostics": scenario_diagnostics, "params": scenario_params,
-     "sim_time": scenario_sim_time, "bad_input": scenario_bad_input}[scenario](peer)
+     "sim_time": scenario_sim_time, "bad_input": scenario_bad_input, "flood": scenario_flood}[scenario](peer)
 
 
 if __name__ == "__main__":

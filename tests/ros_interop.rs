@@ -20,7 +20,10 @@ fn python() -> Option<PathBuf> {
         .map(PathBuf::from)
         .unwrap_or_else(|| crate_root().join(".venv/bin/python"));
     let ok = Command::new(&path)
-        .args(["-c", "import rclpy, sensor_msgs.msg, diagnostic_msgs.msg, rosgraph_msgs.msg"])
+        .args([
+            "-c",
+            "import rclpy, sensor_msgs.msg, diagnostic_msgs.msg, rosgraph_msgs.msg",
+        ])
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .status()
@@ -28,7 +31,10 @@ fn python() -> Option<PathBuf> {
     if ok {
         return Some(path);
     }
-    let why = format!("{} cannot import rclpy (run .ci/setup-ros.sh .venv)", path.display());
+    let why = format!(
+        "{} cannot import rclpy (run .ci/setup-ros.sh .venv)",
+        path.display()
+    );
     if std::env::var("FDAVAR_REQUIRE_PYTHON").as_deref() == Ok("1") {
         panic!("{why}");
     }
@@ -93,7 +99,10 @@ fn peer(
                 format!("{}:{old}", add.display())
             };
             cmd.env("PYTHONPATH", join("PYTHONPATH", &py));
-            cmd.env("LD_LIBRARY_PATH", join("LD_LIBRARY_PATH", &prefix.join("lib")));
+            cmd.env(
+                "LD_LIBRARY_PATH",
+                join("LD_LIBRARY_PATH", &prefix.join("lib")),
+            );
             cmd.env("AMENT_PREFIX_PATH", join("AMENT_PREFIX_PATH", &prefix));
         }
     }
@@ -103,7 +112,10 @@ fn peer(
     let (tx, rx) = std::sync::mpsc::channel::<String>();
     std::thread::spawn(move || {
         use std::io::BufRead;
-        for line in std::io::BufReader::new(stdout).lines().map_while(Result::ok) {
+        for line in std::io::BufReader::new(stdout)
+            .lines()
+            .map_while(Result::ok)
+        {
             let _ = tx.send(line);
         }
     });
@@ -133,15 +145,24 @@ fn peer(
         if let (true, Some(pid)) = (flooding, watch.as_deref_mut()) {
             pid.rss_kb.extend(rss_kb(pid.pid));
         }
-        assert!(start.elapsed() < timeout, "peer {scenario} did not finish within {timeout:?}");
+        assert!(
+            start.elapsed() < timeout,
+            "peer {scenario} did not finish within {timeout:?}"
+        );
     }
     let _ = child.0.wait();
     let err = err_reader.join().unwrap_or_default();
     let last = lines.last().cloned().unwrap_or_default();
     let verdict: serde_json::Value = serde_json::from_str(&last).unwrap_or_else(|_| {
-        panic!("peer {scenario} printed no verdict.\nstdout:\n{}\nstderr:\n{err}", lines.join("\n"))
+        panic!(
+            "peer {scenario} printed no verdict.\nstdout:\n{}\nstderr:\n{err}",
+            lines.join("\n")
+        )
     });
-    assert!(verdict["ok"].as_bool().unwrap_or(false), "peer {scenario} failed: {verdict}\nstderr:\n{err}");
+    assert!(
+        verdict["ok"].as_bool().unwrap_or(false),
+        "peer {scenario} failed: {verdict}\nstderr:\n{err}"
+    );
     verdict
 }
 
@@ -177,7 +198,10 @@ fn parameters_are_listed_set_and_refused_through_the_ros_services() {
 #[test]
 fn sim_time_from_clock_drives_the_node() {
     let Some(py) = python() else { return };
-    let _node = start_node(63, &["-p", "use_sim_time:=true", "-p", "publish_rate_hz:=5.0"]);
+    let _node = start_node(
+        63,
+        &["-p", "use_sim_time:=true", "-p", "publish_rate_hz:=5.0"],
+    );
     let v = peer(&py, 63, "sim_time", Duration::from_secs(60), None);
     eprintln!("sim_time: {v}");
 }
@@ -185,7 +209,10 @@ fn sim_time_from_clock_drives_the_node() {
 #[test]
 fn bad_input_is_counted_and_silence_is_stale() {
     let Some(py) = python() else { return };
-    let _node = start_node(64, &["-p", "publish_rate_hz:=4.0", "-p", "stale_timeout_s:=1.0"]);
+    let _node = start_node(
+        64,
+        &["-p", "publish_rate_hz:=4.0", "-p", "stale_timeout_s:=1.0"],
+    );
     let v = peer(&py, 64, "bad_input", Duration::from_secs(60), None);
     eprintln!("bad_input: {v}");
 }
@@ -224,10 +251,19 @@ fn a_flood_is_dropped_and_counted_with_bounded_memory() {
         rss_kb: Vec::new(),
     };
     let v = peer(&py, 66, "flood", Duration::from_secs(90), Some(&mut watch));
-    eprintln!("flood: {v}; node RSS during the flood (kB): {:?}", watch.rss_kb);
+    eprintln!(
+        "flood: {v}; node RSS during the flood (kB): {:?}",
+        watch.rss_kb
+    );
     let (first, max) = (watch.rss_kb[0], *watch.rss_kb.iter().max().unwrap());
     // Bounded: the queue holds 64 samples and the DDS reader keeps the last 100 messages, so the
     // flood may not grow the node by more than allocator noise (a few MB), whatever its length.
-    assert!(max - first < 16 * 1024, "RSS grew from {first} kB to {max} kB during the flood");
-    assert!(v["sent"].as_u64().unwrap() >= 2000, "the peer did not flood: {v}");
+    assert!(
+        max - first < 16 * 1024,
+        "RSS grew from {first} kB to {max} kB during the flood"
+    );
+    assert!(
+        v["sent"].as_u64().unwrap() >= 2000,
+        "the peer did not flood: {v}"
+    );
 }

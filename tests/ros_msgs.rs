@@ -20,7 +20,10 @@ fn parse_msg(text: &str) -> Vec<(String, String)> {
         .map(|l| {
             let mut parts = l.split_whitespace();
             let ty = parts.next().unwrap().to_string();
-            let name = parts.next().unwrap_or_else(|| panic!("no field name in '{l}'")).to_string();
+            let name = parts
+                .next()
+                .unwrap_or_else(|| panic!("no field name in '{l}'"))
+                .to_string();
             (ty, name)
         })
         .collect()
@@ -31,9 +34,16 @@ fn check_against_msg_file<M: RosMessage>() {
     let path = format!("{}/msg/msg/{}.msg", env!("CARGO_MANIFEST_DIR"), M::NAME);
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
     let from_file = parse_msg(&text);
-    let from_rust: Vec<(String, String)> =
-        M::FIELDS.iter().map(|(t, n)| (t.to_string(), n.to_string())).collect();
-    assert_eq!(from_rust, from_file, "{} mirror differs from {path}", M::NAME);
+    let from_rust: Vec<(String, String)> = M::FIELDS
+        .iter()
+        .map(|(t, n)| (t.to_string(), n.to_string()))
+        .collect();
+    assert_eq!(
+        from_rust,
+        from_file,
+        "{} mirror differs from {path}",
+        M::NAME
+    );
 }
 
 #[test]
@@ -48,16 +58,33 @@ fn mirrors_match_the_msg_files_field_by_field() {
 #[test]
 fn every_msg_file_has_a_mirror_and_is_listed_in_cmake() {
     let dir = format!("{}/msg/msg", env!("CARGO_MANIFEST_DIR"));
-    let mirrored = ["AxisState", "Coefficient", "DavarPoint", "Suggestion", "TauInterval"];
-    let cmake = std::fs::read_to_string(format!("{}/msg/CMakeLists.txt", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    let mirrored = [
+        "AxisState",
+        "Coefficient",
+        "DavarPoint",
+        "Suggestion",
+        "TauInterval",
+    ];
+    let cmake =
+        std::fs::read_to_string(format!("{}/msg/CMakeLists.txt", env!("CARGO_MANIFEST_DIR")))
+            .unwrap();
     let mut found: Vec<String> = std::fs::read_dir(&dir)
         .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().trim_end_matches(".msg").to_string())
+        .map(|e| {
+            e.unwrap()
+                .file_name()
+                .to_string_lossy()
+                .trim_end_matches(".msg")
+                .to_string()
+        })
         .collect();
     found.sort();
     assert_eq!(found, mirrored);
     for name in mirrored {
-        assert!(cmake.contains(&format!("\"msg/{name}.msg\"")), "{name} missing from CMakeLists.txt");
+        assert!(
+            cmake.contains(&format!("\"msg/{name}.msg\"")),
+            "{name} missing from CMakeLists.txt"
+        );
     }
 }
 
@@ -103,7 +130,10 @@ fn axis_state_survives_a_cdr_round_trip() {
             .collect(),
         coefficients: vec![coefficient.clone()],
         fit_error: 1.1,
-        failing_tau: vec![TauInterval { low_s: 0.3, high_s: 1.2 }],
+        failing_tau: vec![TauInterval {
+            low_s: 0.3,
+            high_s: 1.2,
+        }],
         suggestions: vec![Suggestion {
             effect: "sinusoid".into(),
             params: vec![coefficient],
@@ -115,7 +145,10 @@ fn axis_state_survives_a_cdr_round_trip() {
         gaps: 1,
     };
     let size = round_trip(&state);
-    assert!(size < 4096, "AxisState should stay small (KBs), got {size} bytes");
+    assert!(
+        size < 4096,
+        "AxisState should stay small (KBs), got {size} bytes"
+    );
     round_trip(&AxisState::default());
 }
 

@@ -9,13 +9,14 @@ use std::sync::Arc;
 
 fn main() -> ExitCode {
     let domain = std::env::var("ROS_DOMAIN_ID").ok();
-    let (config, rest) = match fdavar::ros::NodeConfig::from_args(std::env::args().skip(1), domain.as_deref()) {
-        Ok(c) => c,
-        Err(e) => {
-            eprintln!("fdavar_node: error: {e}");
-            return ExitCode::from(1);
-        }
-    };
+    let (config, rest) =
+        match fdavar::ros::NodeConfig::from_args(std::env::args().skip(1), domain.as_deref()) {
+            Ok(c) => c,
+            Err(e) => {
+                eprintln!("fdavar_node: error: {e}");
+                return ExitCode::from(1);
+            }
+        };
     if let Some(arg) = rest.first() {
         eprintln!(
             "fdavar_node: error: unexpected argument '{arg}'; node settings go after --ros-args \

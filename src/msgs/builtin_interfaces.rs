@@ -32,5 +32,6 @@ impl Time {
 impl RosMessage for Time {
     const PACKAGE: &'static str = "builtin_interfaces";
     const NAME: &'static str = "Time";
-    const FIELDS: &'static [(&'static str, &'static str)] = &[("int32", "sec"), ("uint32", "nanosec")];
+    const FIELDS: &'static [(&'static str, &'static str)] =
+        &[("int32", "sec"), ("uint32", "nanosec")];
 }

@@ -16,8 +16,10 @@ pub struct DiagnosticArray {
 impl RosMessage for DiagnosticArray {
     const PACKAGE: &'static str = "diagnostic_msgs";
     const NAME: &'static str = "DiagnosticArray";
-    const FIELDS: &'static [(&'static str, &'static str)] =
-        &[("std_msgs/Header", "header"), ("DiagnosticStatus[]", "status")];
+    const FIELDS: &'static [(&'static str, &'static str)] = &[
+        ("std_msgs/Header", "header"),
+        ("DiagnosticStatus[]", "status"),
+    ];
 }
 
 /// The `level` values of [`DiagnosticStatus`] (a `byte` in the `.msg`).
@@ -83,5 +85,6 @@ impl KeyValue {
 impl RosMessage for KeyValue {
     const PACKAGE: &'static str = "diagnostic_msgs";
     const NAME: &'static str = "KeyValue";
-    const FIELDS: &'static [(&'static str, &'static str)] = &[("string", "key"), ("string", "value")];
+    const FIELDS: &'static [(&'static str, &'static str)] =
+        &[("string", "key"), ("string", "value")];
 }

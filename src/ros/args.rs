@@ -111,8 +111,11 @@ impl RosArgs {
                 "-e" | "--enclave" => {
                     value_of(&arg)?;
                 }
-                "--enable-rosout-logs" | "--disable-rosout-logs" | "--enable-stdout-logs"
-                | "--disable-stdout-logs" | "--enable-external-lib-logs"
+                "--enable-rosout-logs"
+                | "--disable-rosout-logs"
+                | "--enable-stdout-logs"
+                | "--disable-stdout-logs"
+                | "--enable-external-lib-logs"
                 | "--disable-external-lib-logs" => {}
                 other => return Err(ArgsError::Unknown(other.to_string())),
             }
@@ -164,17 +167,32 @@ pub fn yaml_to_param(yaml: &serde_yaml_ng::Value) -> Result<ParameterValue, Stri
         },
         Y::String(s) => ParameterValue::String(s.clone()),
         Y::Sequence(items) => {
-            let values = items.iter().map(yaml_to_param).collect::<Result<Vec<_>, _>>()?;
+            let values = items
+                .iter()
+                .map(yaml_to_param)
+                .collect::<Result<Vec<_>, _>>()?;
             let all = |f: fn(&ParameterValue) -> bool| values.iter().all(f);
             if values.is_empty() {
                 ParameterValue::StringArray(Vec::new())
             } else if all(|v| matches!(v, ParameterValue::Boolean(_))) {
                 ParameterValue::BooleanArray(
-                    values.iter().filter_map(|v| match v { ParameterValue::Boolean(b) => Some(*b), _ => None }).collect(),
+                    values
+                        .iter()
+                        .filter_map(|v| match v {
+                            ParameterValue::Boolean(b) => Some(*b),
+                            _ => None,
+                        })
+                        .collect(),
                 )
             } else if all(|v| matches!(v, ParameterValue::Integer(_))) {
                 ParameterValue::IntegerArray(
-                    values.iter().filter_map(|v| match v { ParameterValue::Integer(i) => Some(*i), _ => None }).collect(),
+                    values
+                        .iter()
+                        .filter_map(|v| match v {
+                            ParameterValue::Integer(i) => Some(*i),
+                            _ => None,
+                        })
+                        .collect(),
                 )
             } else if all(|v| matches!(v, ParameterValue::Double(_) | ParameterValue::Integer(_))) {
                 ParameterValue::DoubleArray(
@@ -189,13 +207,21 @@ pub fn yaml_to_param(yaml: &serde_yaml_ng::Value) -> Result<ParameterValue, Stri
                 )
             } else if all(|v| matches!(v, ParameterValue::String(_))) {
                 ParameterValue::StringArray(
-                    values.iter().filter_map(|v| match v { ParameterValue::String(s) => Some(s.clone()), _ => None }).collect(),
+                    values
+                        .iter()
+                        .filter_map(|v| match v {
+                            ParameterValue::String(s) => Some(s.clone()),
+                            _ => None,
+                        })
+                        .collect(),
                 )
             } else {
                 return Err("is a sequence of mixed or nested types".to_string());
             }
         }
-        Y::Mapping(_) => return Err("is a map; ROS parameters are scalars or flat arrays".to_string()),
+        Y::Mapping(_) => {
+            return Err("is a map; ROS parameters are scalars or flat arrays".to_string())
+        }
         Y::Tagged(t) => yaml_to_param(&t.value)?,
     })
 }
@@ -207,16 +233,36 @@ mod tests {
     #[test]
     fn ros_args_are_split_from_program_args() {
         let (ros, rest) = RosArgs::parse([
-            "--dump-json", "out.json", "--ros-args", "-r", "__ns:=/robot", "-r", "__node:=watch",
-            "-r", "imu:=/sensors/imu", "-p", "publish_rate_hz:=2.5", "--params-file", "a.yaml",
-            "--log-level", "debug", "--", "extra",
+            "--dump-json",
+            "out.json",
+            "--ros-args",
+            "-r",
+            "__ns:=/robot",
+            "-r",
+            "__node:=watch",
+            "-r",
+            "imu:=/sensors/imu",
+            "-p",
+            "publish_rate_hz:=2.5",
+            "--params-file",
+            "a.yaml",
+            "--log-level",
+            "debug",
+            "--",
+            "extra",
         ])
         .unwrap();
         assert_eq!(rest, vec!["--dump-json", "out.json", "extra"]);
         assert_eq!(ros.namespace.as_deref(), Some("/robot"));
         assert_eq!(ros.node_name.as_deref(), Some("watch"));
-        assert_eq!(ros.remaps, vec![("imu".to_string(), "/sensors/imu".to_string())]);
-        assert_eq!(ros.params, vec![("publish_rate_hz".to_string(), ParameterValue::Double(2.5))]);
+        assert_eq!(
+            ros.remaps,
+            vec![("imu".to_string(), "/sensors/imu".to_string())]
+        );
+        assert_eq!(
+            ros.params,
+            vec![("publish_rate_hz".to_string(), ParameterValue::Double(2.5))]
+        );
         assert_eq!(ros.params_files, vec![PathBuf::from("a.yaml")]);
         assert_eq!(ros.log_level.as_deref(), Some("debug"));
     }
@@ -229,16 +275,28 @@ mod tests {
         assert_eq!(p("3.0"), ParameterValue::Double(3.0));
         assert_eq!(p("N,B,K"), ParameterValue::String("N,B,K".into()));
         assert_eq!(p("[1, 2.5]"), ParameterValue::DoubleArray(vec![1.0, 2.5]));
-        assert_eq!(p("[a, b]"), ParameterValue::StringArray(vec!["a".into(), "b".into()]));
+        assert_eq!(
+            p("[a, b]"),
+            ParameterValue::StringArray(vec!["a".into(), "b".into()])
+        );
         assert!(parse_param_value("x", "{a: 1}").is_err());
         assert!(parse_param_value("x", "[1, a]").is_err());
     }
 
     #[test]
     fn malformed_ros_args_are_refused() {
-        assert!(matches!(RosArgs::parse(["--ros-args", "-r"]), Err(ArgsError::MissingValue { .. })));
-        assert!(matches!(RosArgs::parse(["--ros-args", "-p", "x"]), Err(ArgsError::NoAssignment { .. })));
-        assert!(matches!(RosArgs::parse(["--ros-args", "--bogus"]), Err(ArgsError::Unknown(_))));
+        assert!(matches!(
+            RosArgs::parse(["--ros-args", "-r"]),
+            Err(ArgsError::MissingValue { .. })
+        ));
+        assert!(matches!(
+            RosArgs::parse(["--ros-args", "-p", "x"]),
+            Err(ArgsError::NoAssignment { .. })
+        ));
+        assert!(matches!(
+            RosArgs::parse(["--ros-args", "--bogus"]),
+            Err(ArgsError::Unknown(_))
+        ));
         // Without --ros-args nothing is interpreted.
         let (ros, rest) = RosArgs::parse(["-r", "x:=y"]).unwrap();
         assert_eq!(ros, RosArgs::default());

@@ -57,9 +57,13 @@ impl BadInput {
             BadInput::Backwards => "IMU stamp went backwards: sample dropped",
             BadInput::Duplicate => "duplicate IMU stamp: sample dropped",
             BadInput::ZeroStamp => "zero IMU header stamp in a stamped stream: sample dropped",
-            BadInput::Gap => "gap in IMU stamps (> 1.5 periods): Allan terms across it are left out",
+            BadInput::Gap => {
+                "gap in IMU stamps (> 1.5 periods): Allan terms across it are left out"
+            }
             BadInput::RateChange => "IMU rate changed by more than 20 % from the nominal rate",
-            BadInput::QueueFull => "analysis queue full: IMU samples dropped (input faster than analysis)",
+            BadInput::QueueFull => {
+                "analysis queue full: IMU samples dropped (input faster than analysis)"
+            }
         }
     }
 }
@@ -162,7 +166,10 @@ impl Monitor {
 
     /// The rows completed since the last call (empty unless [`Monitor::record_rows`] was called).
     pub fn drain_rows(&mut self) -> Vec<AxisState> {
-        self.new_rows.as_mut().map(std::mem::take).unwrap_or_default()
+        self.new_rows
+            .as_mut()
+            .map(std::mem::take)
+            .unwrap_or_default()
     }
 
     /// Changes the settings (live parameters).
@@ -203,7 +210,12 @@ impl Monitor {
     /// Checks one received IMU sample and feeds the engine; returns the lines to log (each kind once).
     ///
     /// `receive_ns` is the node time at reception (used when the stamp is zero, and for staleness).
-    pub fn push(&mut self, mut sample: ImuSample, frame_id: &str, receive_ns: i64) -> Vec<&'static str> {
+    pub fn push(
+        &mut self,
+        mut sample: ImuSample,
+        frame_id: &str,
+        receive_ns: i64,
+    ) -> Vec<&'static str> {
         let mut log = Vec::new();
         self.counters.received += 1;
         self.last_receive_ns = Some(receive_ns);
@@ -298,7 +310,10 @@ impl Monitor {
     /// Builds `/diagnostics` and the latest `~/<axis>/state` messages at node time `now_ns`.
     ///
     /// Also returns a line to log when the rate changed.
-    pub fn report(&mut self, now_ns: i64) -> (DiagnosticArray, Vec<AxisState>, Option<&'static str>) {
+    pub fn report(
+        &mut self,
+        now_ns: i64,
+    ) -> (DiagnosticArray, Vec<AxisState>, Option<&'static str>) {
         let log = self.close_rate_window();
         let stale = match self.last_receive_ns {
             None => Some("no IMU message received yet".to_string()),
@@ -324,12 +339,18 @@ impl Monitor {
                 KeyValue::new("non_finite", c.non_finite[i]),
                 KeyValue::new("zero_stamps", c.zero_stamps),
                 KeyValue::new("rate_changes", c.rate_changes),
-                KeyValue::new("rate_hz", self.rate_hz.map_or("".to_string(), |r| format!("{r:.3}"))),
+                KeyValue::new(
+                    "rate_hz",
+                    self.rate_hz.map_or("".to_string(), |r| format!("{r:.3}")),
+                ),
             ];
             let (level, message) = if let Some(why) = &stale {
                 (Level::Error, why.clone())
             } else if self.recent_non_finite[i] > 0 && self.latest[i].is_none() {
-                (Level::Error, "broken input: non-finite values on this axis".to_string())
+                (
+                    Level::Error,
+                    "broken input: non-finite values on this axis".to_string(),
+                )
             } else if let Some(s) = latest {
                 values.extend([
                     KeyValue::new("window_length", s.window_length),
@@ -344,22 +365,39 @@ impl Monitor {
                         coef.value,
                     ));
                 }
-                let suggestions: Vec<&str> = s.suggestions.iter().map(|x| x.effect.as_str()).collect();
+                let suggestions: Vec<&str> =
+                    s.suggestions.iter().map(|x| x.effect.as_str()).collect();
                 values.push(KeyValue::new("suggestions", suggestions.join(",")));
                 if s.fit_error > self.settings.fit_error_warn {
                     (
                         Level::Warn,
-                        format!("model fails: fit_error {:.2}; suggestions: [{}]", s.fit_error, suggestions.join(", ")),
+                        format!(
+                            "model fails: fit_error {:.2}; suggestions: [{}]",
+                            s.fit_error,
+                            suggestions.join(", ")
+                        ),
                     )
                 } else if s.f_value > 3.0 * s.f_reference.max(f64::MIN_POSITIVE) {
-                    (Level::Warn, format!("noise changed: F {:.2} > 3 F̃ ({:.2})", s.f_value, s.f_reference))
+                    (
+                        Level::Warn,
+                        format!(
+                            "noise changed: F {:.2} > 3 F̃ ({:.2})",
+                            s.f_value, s.f_reference
+                        ),
+                    )
                 } else if self.recent_non_finite[i] > 0 {
-                    (Level::Warn, "non-finite values on this axis were dropped".to_string())
+                    (
+                        Level::Warn,
+                        "non-finite values on this axis were dropped".to_string(),
+                    )
                 } else {
                     (Level::Ok, "ok".to_string())
                 }
             } else {
-                (Level::Ok, "collecting samples (no analysis row yet)".to_string())
+                (
+                    Level::Ok,
+                    "collecting samples (no analysis row yet)".to_string(),
+                )
             };
             status.push(DiagnosticStatus {
                 level: level as u8,
@@ -407,7 +445,12 @@ mod tests {
     }
 
     fn value<'a>(array: &'a DiagnosticArray, axis: usize, key: &str) -> &'a str {
-        &array.status[axis].values.iter().find(|kv| kv.key == key).unwrap().value
+        &array.status[axis]
+            .values
+            .iter()
+            .find(|kv| kv.key == key)
+            .unwrap()
+            .value
     }
 
     /// One engine row per sample, so that the tests see what reaches the engine.
@@ -492,7 +535,11 @@ mod tests {
         assert_eq!(value(&a, 0, "samples"), "200");
         let (a, _, _) = m.report(t + 1_500 * MS);
         assert_eq!(level(&a, 0), Level::Error as u8);
-        assert!(a.status[0].message.contains("stale"), "{}", a.status[0].message);
+        assert!(
+            a.status[0].message.contains("stale"),
+            "{}",
+            a.status[0].message
+        );
     }
 
     #[test]

@@ -173,8 +173,14 @@ mod tests {
         assert_eq!(expand("imu", "/", "fdavar").unwrap(), "/imu");
         assert_eq!(expand("imu", "/robot", "fdavar").unwrap(), "/robot/imu");
         assert_eq!(expand("/imu", "/robot", "fdavar").unwrap(), "/imu");
-        assert_eq!(expand("~/gyro_x/state", "/", "fdavar").unwrap(), "/fdavar/gyro_x/state");
-        assert_eq!(expand("~/gyro_x/state", "/r", "f").unwrap(), "/r/f/gyro_x/state");
+        assert_eq!(
+            expand("~/gyro_x/state", "/", "fdavar").unwrap(),
+            "/fdavar/gyro_x/state"
+        );
+        assert_eq!(
+            expand("~/gyro_x/state", "/r", "f").unwrap(),
+            "/r/f/gyro_x/state"
+        );
         assert_eq!(expand("~", "/r", "f").unwrap(), "/r/f");
     }
 
@@ -200,10 +206,16 @@ mod tests {
     fn remaps_match_after_expansion() {
         let remaps = vec![("imu".to_string(), "/sensors/imu".to_string())];
         assert_eq!(resolve("imu", "/r", "f", &remaps).unwrap(), "/sensors/imu");
-        assert_eq!(resolve("/r/imu", "/r", "f", &remaps).unwrap(), "/sensors/imu");
+        assert_eq!(
+            resolve("/r/imu", "/r", "f", &remaps).unwrap(),
+            "/sensors/imu"
+        );
         assert_eq!(resolve("/imu", "/r", "f", &remaps).unwrap(), "/imu");
         let private = vec![("~/gyro_x/state".to_string(), "gx".to_string())];
-        assert_eq!(resolve("~/gyro_x/state", "/r", "f", &private).unwrap(), "/r/gx");
+        assert_eq!(
+            resolve("~/gyro_x/state", "/r", "f", &private).unwrap(),
+            "/r/gx"
+        );
     }
 
     #[test]

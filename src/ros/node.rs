@@ -93,16 +93,26 @@ impl NodeConfig {
     ///
     /// # Errors
     /// [`NodeError`] for malformed arguments, invalid names or parameter values, a bad domain id.
-    pub fn from_args<I, S>(args: I, ros_domain_id: Option<&str>) -> Result<(NodeConfig, Vec<String>), NodeError>
+    pub fn from_args<I, S>(
+        args: I,
+        ros_domain_id: Option<&str>,
+    ) -> Result<(NodeConfig, Vec<String>), NodeError>
     where
         I: IntoIterator<Item = S>,
         S: Into<String>,
     {
         let (ros, rest) = RosArgs::parse(args)?;
         let namespace = normalise_namespace(ros.namespace.as_deref().unwrap_or("/"))?;
-        let name = ros.node_name.clone().unwrap_or_else(|| "fdavar".to_string());
+        let name = ros
+            .node_name
+            .clone()
+            .unwrap_or_else(|| "fdavar".to_string());
         check_node_name(&name)?;
-        let fqn = if namespace == "/" { format!("/{name}") } else { format!("{namespace}/{name}") };
+        let fqn = if namespace == "/" {
+            format!("/{name}")
+        } else {
+            format!("{namespace}/{name}")
+        };
         let params = params::startup_values(&ros.params_files, &ros.params, &fqn)?;
         let domain_id = match ros_domain_id.map(str::trim).filter(|s| !s.is_empty()) {
             None => 0,
@@ -121,7 +131,13 @@ impl NodeConfig {
             log_level: ros.log_level.unwrap_or_else(|| "info".to_string()),
         };
         // Resolve every name now, so that a bad remap is a startup error.
-        for topic in ["imu", "temperature", "/clock", "/diagnostics", "~/gyro_x/state"] {
+        for topic in [
+            "imu",
+            "temperature",
+            "/clock",
+            "/diagnostics",
+            "~/gyro_x/state",
+        ] {
             config.resolve(topic)?;
         }
         Ok((config, rest))
@@ -249,9 +265,13 @@ pub fn run(
             }
             let spec = params::spec(name).ok_or_else(|| format!("unknown parameter '{name}'"))?;
             if !spec.live {
-                return Err(format!("'{name}' is read at startup only; restart the node to change it"));
+                return Err(format!(
+                    "'{name}' is read at startup only; restart the node to change it"
+                ));
             }
-            params::validate(name, value).map(|_| ()).map_err(|e| e.to_string())
+            params::validate(name, value)
+                .map(|_| ())
+                .map_err(|e| e.to_string())
         }))
         .parameter_set_action(Box::new(move |name, value| {
             if !setting.load(Ordering::Acquire) {
@@ -265,12 +285,17 @@ pub fn run(
                 .map_err(|_| "analysis thread stopped".to_string())
         }));
     for spec in NODE_PARAMS {
-        let value = config.params.get(spec.name).cloned().unwrap_or_else(spec.default);
+        let value = config
+            .params
+            .get(spec.name)
+            .cloned()
+            .unwrap_or_else(spec.default);
         options = options.declare_parameter(spec.name, value);
     }
     let mut node = context
         .new_node(
-            NodeName::new(&config.namespace, &config.name).map_err(|e| ros_err("node name")(format!("{e:?}")))?,
+            NodeName::new(&config.namespace, &config.name)
+                .map_err(|e| ros_err("node name")(format!("{e:?}")))?,
             options,
         )
         .map_err(|e| ros_err("node")(format!("{e:?}")))?;
@@ -287,29 +312,53 @@ pub fn run(
             .history(History::KeepLast { depth })
     };
     let imu_name = config.resolve("imu")?;
-    let mut imu_sub: Subscription<Imu> = subscribe(&mut node, &imu_name, topic_type::<Imu>(), &imu_qos)?;
+    let mut imu_sub: Subscription<Imu> =
+        subscribe(&mut node, &imu_name, topic_type::<Imu>(), &imu_qos)?;
     let mut temp_sub: Option<Subscription<Temperature>> = if config.flag("temperature") {
         let name = config.resolve("temperature")?;
-        Some(subscribe(&mut node, &name, topic_type::<Temperature>(), &imu_qos)?)
+        Some(subscribe(
+            &mut node,
+            &name,
+            topic_type::<Temperature>(),
+            &imu_qos,
+        )?)
     } else {
         None
     };
-    let sim_time = config.flag("use_sim_time").then(|| Arc::new(AtomicI64::new(0)));
+    let sim_time = config
+        .flag("use_sim_time")
+        .then(|| Arc::new(AtomicI64::new(0)));
     let mut clock_sub: Option<Subscription<Clock>> = match &sim_time {
         Some(_) => {
             let qos = QosProfile::subscription_default().history(History::KeepLast { depth: 1 });
-            Some(subscribe(&mut node, &config.resolve("/clock")?, topic_type::<Clock>(), &qos)?)
+            Some(subscribe(
+                &mut node,
+                &config.resolve("/clock")?,
+                topic_type::<Clock>(),
+                &qos,
+            )?)
         }
         None => None,
     };
-    let clock = NodeClock { sim: sim_time.clone() };
+    let clock = NodeClock {
+        sim: sim_time.clone(),
+    };
 
-    let diag_pub: Publisher<DiagnosticArray> =
-        publish(&mut node, &config.resolve("/diagnostics")?, topic_type::<DiagnosticArray>(), &status_qos(10))?;
+    let diag_pub: Publisher<DiagnosticArray> = publish(
+        &mut node,
+        &config.resolve("/diagnostics")?,
+        topic_type::<DiagnosticArray>(),
+        &status_qos(10),
+    )?;
     let mut state_pubs = Vec::new();
     for axis in crate::signal::Axis::ALL {
         let name = config.resolve(&format!("~/{axis}/state"))?;
-        state_pubs.push(publish::<AxisState>(&mut node, &name, topic_type::<AxisState>(), &status_qos(10))?);
+        state_pubs.push(publish::<AxisState>(
+            &mut node,
+            &name,
+            topic_type::<AxisState>(),
+            &status_qos(10),
+        )?);
     }
 
     let dump_path = config.text("dump_json");
@@ -324,7 +373,9 @@ pub fn run(
         ))
     };
 
-    let spinner = node.spinner().map_err(|e| ros_err("spinner")(format!("{e:?}")))?;
+    let spinner = node
+        .spinner()
+        .map_err(|e| ros_err("spinner")(format!("{e:?}")))?;
     std::thread::Builder::new()
         .name("fdavar-spin".into())
         .spawn(move || futures::executor::block_on(spinner.spin()))
@@ -361,14 +412,41 @@ pub fn run(
         "fdavar_node {} on domain {}: imu '{imu_name}' ({}, depth {depth}), queue {queue_size}",
         node.fully_qualified_name(),
         config.domain_id,
-        if config.flag("qos.reliable") { "reliable" } else { "best effort" },
+        if config.flag("qos.reliable") {
+            "reliable"
+        } else {
+            "best effort"
+        },
     ));
 
-    receive_loop(&mut imu_sub, temp_sub.as_mut(), clock_sub.as_mut(), sim_time.as_deref(), &clock, &tx, &drops, &stop, &log)?;
+    receive_loop(
+        &mut imu_sub,
+        temp_sub.as_mut(),
+        clock_sub.as_mut(),
+        sim_time.as_deref(),
+        &clock,
+        &tx,
+        &drops,
+        &stop,
+        &log,
+    )?;
     drop(tx);
     let _ = analysis_thread.join();
     node.stop_spinner();
     Ok(())
+}
+
+/// A DDS topic for an absolute ROS name (never relative: see [`super::names`]).
+fn topic(
+    node: &mut Node,
+    name: &str,
+    type_name: MessageTypeName,
+    qos: &QosProfile,
+) -> Result<ros2_client::dds::rustdds::Topic, NodeError> {
+    let ros_name =
+        Name::parse(name).map_err(|e| ros_err(format!("topic {name}"))(format!("{e:?}")))?;
+    node.create_topic(&ros_name, type_name, qos)
+        .map_err(|e| ros_err(format!("topic {name}"))(format!("{e:?}")))
 }
 
 fn subscribe<M: 'static + serde::de::DeserializeOwned>(
@@ -377,10 +455,7 @@ fn subscribe<M: 'static + serde::de::DeserializeOwned>(
     type_name: MessageTypeName,
     qos: &QosProfile,
 ) -> Result<Subscription<M>, NodeError> {
-    let ros_name = Name::parse(name).map_err(|e| ros_err(format!("topic {name}"))(format!("{e:?}")))?;
-    let topic = node
-        .create_topic(&ros_name, type_name, qos)
-        .map_err(|e| ros_err(format!("topic {name}"))(format!("{e:?}")))?;
+    let topic = topic(node, name, type_name, qos)?;
     node.create_subscription(&topic, Some(qos.clone()))
         .map_err(|e| ros_err(format!("subscription {name}"))(format!("{e:?}")))
 }
@@ -391,10 +466,7 @@ fn publish<M: serde::Serialize>(
     type_name: MessageTypeName,
     qos: &QosProfile,
 ) -> Result<Publisher<M>, NodeError> {
-    let ros_name = Name::parse(name).map_err(|e| ros_err(format!("topic {name}"))(format!("{e:?}")))?;
-    let topic = node
-        .create_topic(&ros_name, type_name, qos)
-        .map_err(|e| ros_err(format!("topic {name}"))(format!("{e:?}")))?;
+    let topic = topic(node, name, type_name, qos)?;
     node.create_publisher(&topic, Some(qos.clone()))
         .map_err(|e| ros_err(format!("publisher {name}"))(format!("{e:?}")))
 }
@@ -418,12 +490,18 @@ fn receive_loop(
 ) -> Result<(), NodeError> {
     let poll_err = |e: std::io::Error| ros_err("poll")(e.to_string());
     let mut poll = Poll::new().map_err(poll_err)?;
-    poll.registry().register(imu, IMU, Interest::READABLE).map_err(poll_err)?;
+    poll.registry()
+        .register(imu, IMU, Interest::READABLE)
+        .map_err(poll_err)?;
     if let Some(t) = temperature.as_deref_mut() {
-        poll.registry().register(t, TEMPERATURE, Interest::READABLE).map_err(poll_err)?;
+        poll.registry()
+            .register(t, TEMPERATURE, Interest::READABLE)
+            .map_err(poll_err)?;
     }
     if let Some(c) = clock_sub.as_deref_mut() {
-        poll.registry().register(c, CLOCK, Interest::READABLE).map_err(poll_err)?;
+        poll.registry()
+            .register(c, CLOCK, Interest::READABLE)
+            .map_err(poll_err)?;
     }
     let mut events = Events::with_capacity(16);
     let mut read_errors_logged = false;
@@ -460,7 +538,9 @@ fn receive_loop(
                 Err(e) => {
                     // An undecodable message: count nothing we cannot attribute, log once.
                     if !read_errors_logged {
-                        log.warn(&format!("an IMU message could not be read ({e:?}); such messages are skipped"));
+                        log.warn(&format!(
+                            "an IMU message could not be read ({e:?}); such messages are skipped"
+                        ));
                         read_errors_logged = true;
                     }
                     break;
@@ -496,7 +576,11 @@ impl Analysis {
         loop {
             let timeout = next_publish.saturating_duration_since(Instant::now());
             match rx.recv_timeout(timeout) {
-                Ok(Input::Imu { sample, frame_id, receive_ns }) => {
+                Ok(Input::Imu {
+                    sample,
+                    frame_id,
+                    receive_ns,
+                }) => {
                     for line in self.monitor.push(sample, &frame_id, receive_ns) {
                         self.log.warn(line);
                     }
@@ -534,10 +618,16 @@ impl Analysis {
     }
 
     fn dump_rows(&mut self) {
-        let Some(dump) = self.dump.as_mut() else { return };
+        let Some(dump) = self.dump.as_mut() else {
+            return;
+        };
         for row in self.monitor.drain_rows() {
-            if let Err(e) = serde_json::to_writer(&mut *dump, &row).map_err(std::io::Error::from).and_then(|()| dump.write_all(b"\n")) {
-                self.log.warn(&format!("dump_json: {e}; no more rows are written"));
+            if let Err(e) = serde_json::to_writer(&mut *dump, &row)
+                .map_err(std::io::Error::from)
+                .and_then(|()| dump.write_all(b"\n"))
+            {
+                self.log
+                    .warn(&format!("dump_json: {e}; no more rows are written"));
                 self.dump = None;
                 return;
             }
@@ -557,7 +647,9 @@ impl Analysis {
                 Ok(()) => self.log.info(&format!("{name} = {s}")),
                 Err(e) => self.log.warn(&format!("{name} = {s} not applied: {e}")),
             },
-            _ => self.log.warn(&format!("parameter {name} = {value:?} has no live effect")),
+            _ => self
+                .log
+                .warn(&format!("parameter {name} = {value:?} has no live effect")),
         }
     }
 

@@ -74,7 +74,10 @@ fn model_spec(v: &ParameterValue) -> Result<(), String> {
     } else {
         let known: Vec<String> = crate::model::effects::REGISTRY
             .iter()
-            .map(|k| k.alias().map_or(k.id().to_string(), |a| format!("{} ({a})", k.id())))
+            .map(|k| {
+                k.alias()
+                    .map_or(k.id().to_string(), |a| format!("{} ({a})", k.id()))
+            })
             .collect();
         Err(format!(
             "unknown effect(s) {unknown:?} in '{spec}'; known: [{}]",
@@ -195,7 +198,9 @@ pub fn validate(name: &str, value: &ParameterValue) -> Result<ParameterValue, Pa
         name: name.to_string(),
     })?;
     let value = match (value, (spec.default)()) {
-        (ParameterValue::Integer(i), ParameterValue::Double(_)) => ParameterValue::Double(*i as f64),
+        (ParameterValue::Integer(i), ParameterValue::Double(_)) => {
+            ParameterValue::Double(*i as f64)
+        }
         (v, _) => v.clone(),
     };
     (spec.validate)(&value).map_err(|reason| ParamError::Invalid {
@@ -225,7 +230,9 @@ pub fn read_params_file(
     let doc: serde_yaml_ng::Value =
         serde_yaml_ng::from_str(&text).map_err(|e| file_err(e.to_string()))?;
     let serde_yaml_ng::Value::Mapping(nodes) = doc else {
-        return Err(file_err("the top level is not a map of node names".to_string()));
+        return Err(file_err(
+            "the top level is not a map of node names".to_string(),
+        ));
     };
     let base = node_fqn.rsplit('/').next().unwrap_or(node_fqn);
     let mut out = Vec::new();
@@ -256,7 +263,11 @@ fn flatten(
     };
     for (k, v) in map {
         let k = k.as_str().ok_or("a parameter name is not a string")?;
-        let name = if prefix.is_empty() { k.to_string() } else { format!("{prefix}.{k}") };
+        let name = if prefix.is_empty() {
+            k.to_string()
+        } else {
+            format!("{prefix}.{k}")
+        };
         if v.is_mapping() {
             flatten(v, &name, out)?;
         } else {
@@ -331,8 +342,12 @@ mod tests {
              fdavar:\n  ros__parameters:\n    qos:\n      reliable: true\n    unrelated_key: 3\n",
         )
         .unwrap();
-        let v = startup_values(&[path], &[("queue_size".into(), ParameterValue::Integer(7))], "/fdavar")
-            .unwrap();
+        let v = startup_values(
+            &[path],
+            &[("queue_size".into(), ParameterValue::Integer(7))],
+            "/fdavar",
+        )
+        .unwrap();
         assert_eq!(v["publish_rate_hz"], ParameterValue::Double(2.0));
         assert_eq!(v["qos.reliable"], ParameterValue::Boolean(true));
         assert_eq!(v["queue_size"], ParameterValue::Integer(7));

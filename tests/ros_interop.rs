@@ -80,7 +80,7 @@ fn peer(
 ) -> serde_json::Value {
     let mut cmd = Command::new(python);
     cmd.arg(crate_root().join("tests/ros/peer.py"))
-        .arg(scenario)
+        .args(scenario.split_whitespace())
         .env("ROS_DOMAIN_ID", domain.to_string())
         .env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
         .stdout(Stdio::piped())
@@ -266,4 +266,64 @@ fn a_flood_is_dropped_and_counted_with_bounded_memory() {
         v["sent"].as_u64().unwrap() >= 2000,
         "the peer did not flood: {v}"
     );
+}
+
+#[test]
+fn fdavar_play_replays_a_recording_into_the_node_without_loss() {
+    let Some(py) = python() else { return };
+    // A recording the test writes: 1000 samples at 200 Hz with the sensor's own stamps.
+    let dir = tempfile::tempdir().unwrap();
+    let bag = dir.path().join("rec");
+    let mut writer = fdavar::bag::BagWriter::create(&bag).unwrap();
+    for k in 0..1000_i64 {
+        let sample = fdavar::signal::ImuSample {
+            stamp_ns: 1_000_000_000 + k * 5_000_000,
+            gyro: [1e-3 * (k as f64 * 0.1).sin(), 0.0, 0.0],
+            accel: [0.0, 0.0, 9.81],
+        };
+        // Log times lag the stamps by 1 ms, as a recorder's would.
+        writer
+            .write_imu(
+                "/imu",
+                1_700_000_000_000_000_000 + k * 5_000_000 + 1_000_000,
+                &sample,
+                "imu_link",
+            )
+            .unwrap();
+    }
+    writer.finish().unwrap();
+    let _node = start_node(
+        67,
+        &["-p", "qos.reliable:=true", "-p", "publish_rate_hz:=5.0"],
+    );
+    let player = std::thread::spawn(move || {
+        let out = Command::new(env!("CARGO_BIN_EXE_fdavar"))
+            .args([
+                "play",
+                bag.to_str().unwrap(),
+                "--reliable",
+                "--rate",
+                "2",
+                "--domain-id",
+                "67",
+            ])
+            .args(["--wait-s", "30"])
+            .output()
+            .expect("run fdavar play");
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    });
+    let v = peer(
+        &py,
+        67,
+        "expect_samples 1000",
+        Duration::from_secs(90),
+        None,
+    );
+    let (code, err) = player.join().unwrap();
+    eprintln!("play: {v}; fdavar play said: {err}");
+    assert_eq!(code, Some(0), "fdavar play: {err}");
+    assert!(err.contains("1000 IMU"), "{err}");
 }

@@ -2,14 +2,15 @@
 //! (field names, types and order), and survive a CDR round trip; the standard mirrors have the
 //! sizes rosbag2 recordings show (notes/rosbag2.md: Imu with frame "imu_link" is 324 bytes).
 
-use byteorder::LittleEndian;
 use fdavar::msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
-use fdavar::msgs::fdavar_msgs::{AxisState, Coefficient, DavarPoint, Suggestion, TauInterval};
+use fdavar::msgs::fdavar_msgs::{
+    AxisState, Coefficient, DavarPoint, Fields, Suggestion, TauInterval,
+};
 use fdavar::msgs::rosgraph_msgs::Clock;
 use fdavar::msgs::sensor_msgs::{Imu, Temperature};
 use fdavar::msgs::std_msgs::Header;
 use fdavar::msgs::RosMessage;
-use serde::{de::DeserializeOwned, Serialize};
+use serde::Serialize;
 use std::fmt::Debug;
 
 /// The fields of a `.msg` text: (type, name), comments, blank lines and constants left out.
@@ -29,20 +30,62 @@ fn parse_msg(text: &str) -> Vec<(String, String)> {
         .collect()
 }
 
-fn check_against_msg_file<M: RosMessage>() {
-    assert_eq!(M::PACKAGE, "fdavar_msgs");
-    let path = format!("{}/msg/msg/{}.msg", env!("CARGO_MANIFEST_DIR"), M::NAME);
+/// The field names of a struct in serde (= declaration = CDR) order.
+fn serde_field_names<M: Serialize>(msg: &M) -> Vec<String> {
+    struct Keys(Vec<String>);
+    impl<'de> serde::Deserialize<'de> for Keys {
+        fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Keys, D::Error> {
+            struct V;
+            impl<'de> serde::de::Visitor<'de> for V {
+                type Value = Keys;
+                fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                    f.write_str("a struct")
+                }
+                fn visit_map<A: serde::de::MapAccess<'de>>(
+                    self,
+                    mut map: A,
+                ) -> Result<Keys, A::Error> {
+                    let mut keys = Vec::new();
+                    while let Some((k, _)) = map.next_entry::<String, serde::de::IgnoredAny>()? {
+                        keys.push(k);
+                    }
+                    Ok(Keys(keys))
+                }
+            }
+            d.deserialize_map(V)
+        }
+    }
+    // serde_json writes struct fields in declaration order; read the keys back in that order.
+    let json = serde_json::to_string(msg).unwrap();
+    serde_json::from_str::<Keys>(&json).unwrap().0
+}
+
+fn check_against_msg_file<M: RosMessage + Fields + Default>() {
+    let def = M::DEF;
+    assert_eq!(def.package(), "fdavar_msgs");
+    let path = format!(
+        "{}/msg/msg/{}.msg",
+        env!("CARGO_MANIFEST_DIR"),
+        def.type_name()
+    );
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    assert_eq!(def.text, text, "{} MsgDef text is not {path}", def.name);
     let from_file = parse_msg(&text);
     let from_rust: Vec<(String, String)> = M::FIELDS
         .iter()
         .map(|(t, n)| (t.to_string(), n.to_string()))
         .collect();
     assert_eq!(
-        from_rust,
-        from_file,
-        "{} mirror differs from {path}",
-        M::NAME
+        from_rust, from_file,
+        "{} field list differs from {path}",
+        def.name
+    );
+    let names: Vec<String> = from_file.into_iter().map(|(_, n)| n).collect();
+    assert_eq!(
+        serde_field_names(&M::default()),
+        names,
+        "{} struct fields differ from {path}",
+        def.name
     );
 }
 
@@ -88,17 +131,16 @@ fn every_msg_file_has_a_mirror_and_is_listed_in_cmake() {
     }
 }
 
-fn round_trip<M: Serialize + DeserializeOwned + PartialEq + Debug>(msg: &M) -> usize {
-    let bytes = cdr_encoding::to_vec::<M, LittleEndian>(msg).unwrap();
-    let (back, used) = cdr_encoding::from_bytes::<M, LittleEndian>(&bytes).unwrap();
-    assert_eq!(&back, msg);
-    assert_eq!(used, bytes.len());
+/// Encodes and decodes `msg` as a ROS 2 payload; returns its size with the 4-byte header.
+fn round_trip<M: RosMessage + PartialEq + Debug>(msg: &M) -> usize {
+    let bytes = fdavar::msgs::encode(msg).unwrap();
+    assert_eq!(&fdavar::msgs::decode::<M>(&bytes).unwrap(), msg);
     bytes.len()
 }
 
 fn header() -> Header {
     Header {
-        stamp: fdavar::msgs::builtin_interfaces::Time::from_nanos(1_700_000_000_123_456_789),
+        stamp: fdavar::msgs::builtin_interfaces::Time::from_ns(1_700_000_000_123_456_789).unwrap(),
         frame_id: "imu_link".into(),
     }
 }
@@ -154,18 +196,20 @@ fn axis_state_survives_a_cdr_round_trip() {
 
 #[test]
 fn standard_mirrors_have_the_recorded_cdr_sizes() {
-    let imu = Imu {
-        header: header(),
-        ..Imu::default()
+    let sample = fdavar::signal::ImuSample {
+        stamp_ns: 1_700_000_000_123_456_789,
+        gyro: [0.1, 0.2, 0.3],
+        accel: [0.0, 0.0, 9.81],
     };
+    let imu = Imu::from_sample(&sample, "imu_link").unwrap();
     // 324 bytes including the 4-byte encapsulation header (notes/rosbag2.md).
-    assert_eq!(round_trip(&imu) + 4, 324);
+    assert_eq!(round_trip(&imu), 324);
     let temperature = Temperature {
         header: header(),
         temperature: 21.5,
         variance: 0.0,
     };
-    assert_eq!(round_trip(&temperature) + 4, 44);
+    assert_eq!(round_trip(&temperature), 44);
     round_trip(&Clock {
         clock: fdavar::msgs::builtin_interfaces::Time { sec: 5, nanosec: 7 },
     });

@@ -1,7 +1,7 @@
 //! `diagnostic_msgs/msg/{DiagnosticArray, DiagnosticStatus, KeyValue}`: what `/diagnostics` carries.
 
-use super::std_msgs::Header;
-use super::RosMessage;
+use super::std_msgs::{Header, HEADER};
+use super::{MsgDef, RosMessage};
 use serde::{Deserialize, Serialize};
 
 /// `diagnostic_msgs/msg/DiagnosticArray`: one status per monitored component.
@@ -13,13 +13,18 @@ pub struct DiagnosticArray {
     pub status: Vec<DiagnosticStatus>,
 }
 
+/// The `.msg` definition of [`DiagnosticArray`].
+pub static DIAGNOSTIC_ARRAY: MsgDef = MsgDef {
+    name: "diagnostic_msgs/msg/DiagnosticArray",
+    text: "std_msgs/Header header
+DiagnosticStatus[] status
+",
+    deps: &[&HEADER, &DIAGNOSTIC_STATUS],
+    type_hash: "",
+};
+
 impl RosMessage for DiagnosticArray {
-    const PACKAGE: &'static str = "diagnostic_msgs";
-    const NAME: &'static str = "DiagnosticArray";
-    const FIELDS: &'static [(&'static str, &'static str)] = &[
-        ("std_msgs/Header", "header"),
-        ("DiagnosticStatus[]", "status"),
-    ];
+    const DEF: &'static MsgDef = &DIAGNOSTIC_ARRAY;
 }
 
 /// The `level` values of [`DiagnosticStatus`] (a `byte` in the `.msg`).
@@ -51,16 +56,21 @@ pub struct DiagnosticStatus {
     pub values: Vec<KeyValue>,
 }
 
+/// The `.msg` definition of [`DiagnosticStatus`] (its level constants left out).
+pub static DIAGNOSTIC_STATUS: MsgDef = MsgDef {
+    name: "diagnostic_msgs/msg/DiagnosticStatus",
+    text: "byte level
+string name
+string message
+string hardware_id
+KeyValue[] values
+",
+    deps: &[&KEY_VALUE],
+    type_hash: "",
+};
+
 impl RosMessage for DiagnosticStatus {
-    const PACKAGE: &'static str = "diagnostic_msgs";
-    const NAME: &'static str = "DiagnosticStatus";
-    const FIELDS: &'static [(&'static str, &'static str)] = &[
-        ("byte", "level"),
-        ("string", "name"),
-        ("string", "message"),
-        ("string", "hardware_id"),
-        ("KeyValue[]", "values"),
-    ];
+    const DEF: &'static MsgDef = &DIAGNOSTIC_STATUS;
 }
 
 /// `diagnostic_msgs/msg/KeyValue`.
@@ -82,9 +92,16 @@ impl KeyValue {
     }
 }
 
+/// The `.msg` definition of [`KeyValue`].
+pub static KEY_VALUE: MsgDef = MsgDef {
+    name: "diagnostic_msgs/msg/KeyValue",
+    text: "string key
+string value
+",
+    deps: &[],
+    type_hash: "",
+};
+
 impl RosMessage for KeyValue {
-    const PACKAGE: &'static str = "diagnostic_msgs";
-    const NAME: &'static str = "KeyValue";
-    const FIELDS: &'static [(&'static str, &'static str)] =
-        &[("string", "key"), ("string", "value")];
+    const DEF: &'static MsgDef = &KEY_VALUE;
 }

@@ -1,11 +1,22 @@
 //! `fdavar_msgs/msg/*`: the typed per-axis state `fdavar_node` publishes on `~/<axis>/state`.
 //!
 //! The definitions live in the ament interface package `msg/` (built by colcon for ROS users);
-//! these are their serde mirrors. A test compares them field by field with the `.msg` files.
+//! these are their serde mirrors, and each [`MsgDef`] text *is* its `.msg` file (`include_str!`).
+//! Each mirror also states its fields ([`Fields`]); a test checks those against the `.msg` file and
+//! against the struct's serde field order, so that the three cannot drift apart.
 
-use super::std_msgs::Header;
-use super::RosMessage;
+use super::std_msgs::{Header, HEADER};
+use super::{MsgDef, RosMessage};
 use serde::{Deserialize, Serialize};
+
+/// The fields of a mirror in `.msg` order: (ROS type as written in the `.msg` file, field name).
+///
+/// Why: serde knows the field names but not their ROS types; this list is what the test compares
+/// with the `.msg` file, type by type.
+pub trait Fields {
+    /// (type, name) pairs.
+    const FIELDS: &'static [(&'static str, &'static str)];
+}
 
 /// `fdavar_msgs/msg/AxisState`: one F-DAVAR update of one IMU axis.
 ///
@@ -45,9 +56,25 @@ pub struct AxisState {
     pub gaps: u64,
 }
 
+/// The `.msg` definition of [`AxisState`]: the file `msg/msg/AxisState.msg`.
+pub static AXIS_STATE: MsgDef = MsgDef {
+    name: "fdavar_msgs/msg/AxisState",
+    text: include_str!("../../msg/msg/AxisState.msg"),
+    deps: &[
+        &HEADER,
+        &DAVAR_POINT,
+        &COEFFICIENT,
+        &TAU_INTERVAL,
+        &SUGGESTION,
+    ],
+    type_hash: "",
+};
+
 impl RosMessage for AxisState {
-    const PACKAGE: &'static str = "fdavar_msgs";
-    const NAME: &'static str = "AxisState";
+    const DEF: &'static MsgDef = &AXIS_STATE;
+}
+
+impl Fields for AxisState {
     const FIELDS: &'static [(&'static str, &'static str)] = &[
         ("std_msgs/Header", "header"),
         ("string", "axis"),
@@ -82,9 +109,19 @@ pub struct DavarPoint {
     pub edf: f64,
 }
 
+/// The `.msg` definition of [`DavarPoint`]: the file `msg/msg/DavarPoint.msg`.
+pub static DAVAR_POINT: MsgDef = MsgDef {
+    name: "fdavar_msgs/msg/DavarPoint",
+    text: include_str!("../../msg/msg/DavarPoint.msg"),
+    deps: &[],
+    type_hash: "",
+};
+
 impl RosMessage for DavarPoint {
-    const PACKAGE: &'static str = "fdavar_msgs";
-    const NAME: &'static str = "DavarPoint";
+    const DEF: &'static MsgDef = &DAVAR_POINT;
+}
+
+impl Fields for DavarPoint {
     const FIELDS: &'static [(&'static str, &'static str)] = &[
         ("float64", "tau_s"),
         ("float64", "avar"),
@@ -107,9 +144,19 @@ pub struct Coefficient {
     pub unit: String,
 }
 
+/// The `.msg` definition of [`Coefficient`]: the file `msg/msg/Coefficient.msg`.
+pub static COEFFICIENT: MsgDef = MsgDef {
+    name: "fdavar_msgs/msg/Coefficient",
+    text: include_str!("../../msg/msg/Coefficient.msg"),
+    deps: &[],
+    type_hash: "",
+};
+
 impl RosMessage for Coefficient {
-    const PACKAGE: &'static str = "fdavar_msgs";
-    const NAME: &'static str = "Coefficient";
+    const DEF: &'static MsgDef = &COEFFICIENT;
+}
+
+impl Fields for Coefficient {
     const FIELDS: &'static [(&'static str, &'static str)] = &[
         ("string", "effect"),
         ("string", "name"),
@@ -127,9 +174,19 @@ pub struct TauInterval {
     pub high_s: f64,
 }
 
+/// The `.msg` definition of [`TauInterval`]: the file `msg/msg/TauInterval.msg`.
+pub static TAU_INTERVAL: MsgDef = MsgDef {
+    name: "fdavar_msgs/msg/TauInterval",
+    text: include_str!("../../msg/msg/TauInterval.msg"),
+    deps: &[],
+    type_hash: "",
+};
+
 impl RosMessage for TauInterval {
-    const PACKAGE: &'static str = "fdavar_msgs";
-    const NAME: &'static str = "TauInterval";
+    const DEF: &'static MsgDef = &TAU_INTERVAL;
+}
+
+impl Fields for TauInterval {
     const FIELDS: &'static [(&'static str, &'static str)] =
         &[("float64", "low_s"), ("float64", "high_s")];
 }
@@ -147,9 +204,19 @@ pub struct Suggestion {
     pub explanation: String,
 }
 
+/// The `.msg` definition of [`Suggestion`]: the file `msg/msg/Suggestion.msg`.
+pub static SUGGESTION: MsgDef = MsgDef {
+    name: "fdavar_msgs/msg/Suggestion",
+    text: include_str!("../../msg/msg/Suggestion.msg"),
+    deps: &[&COEFFICIENT],
+    type_hash: "",
+};
+
 impl RosMessage for Suggestion {
-    const PACKAGE: &'static str = "fdavar_msgs";
-    const NAME: &'static str = "Suggestion";
+    const DEF: &'static MsgDef = &SUGGESTION;
+}
+
+impl Fields for Suggestion {
     const FIELDS: &'static [(&'static str, &'static str)] = &[
         ("string", "effect"),
         ("Coefficient[]", "params"),

@@ -1,7 +1,7 @@
 //! `rosgraph_msgs/msg/Clock`, what `ros2 bag play --clock` and simulators publish on `/clock`.
 
-use super::builtin_interfaces::Time;
-use super::RosMessage;
+use super::builtin_interfaces::{Time, TIME};
+use super::{MsgDef, RosMessage};
 use serde::{Deserialize, Serialize};
 
 /// `rosgraph_msgs/msg/Clock`: the simulated time.
@@ -14,8 +14,14 @@ pub struct Clock {
     pub clock: Time,
 }
 
+/// The `.msg` definition of [`Clock`].
+pub static CLOCK: MsgDef = MsgDef {
+    name: "rosgraph_msgs/msg/Clock",
+    text: "builtin_interfaces/Time clock\n",
+    deps: &[&TIME],
+    type_hash: "",
+};
+
 impl RosMessage for Clock {
-    const PACKAGE: &'static str = "rosgraph_msgs";
-    const NAME: &'static str = "Clock";
-    const FIELDS: &'static [(&'static str, &'static str)] = &[("builtin_interfaces/Time", "clock")];
+    const DEF: &'static MsgDef = &CLOCK;
 }

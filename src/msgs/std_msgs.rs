@@ -1,21 +1,22 @@
-//! `std_msgs/msg/Header`.
+//! `std_msgs`: the message header.
 
-use super::builtin_interfaces::Time;
-use super::RosMessage;
+use super::builtin_interfaces::{Time, TIME};
+use super::MsgDef;
 use serde::{Deserialize, Serialize};
 
-/// `std_msgs/msg/Header`: a stamp and a coordinate frame.
+/// `std_msgs/msg/Header`: when (sensor clock) and in which frame a measurement was taken.
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Header {
-    /// When the data was taken (sensor clock).
+    /// Sensor time of the measurement.
     pub stamp: Time,
-    /// The coordinate frame of the data.
+    /// Coordinate frame of the measurement, e.g. `imu_link`.
     pub frame_id: String,
 }
 
-impl RosMessage for Header {
-    const PACKAGE: &'static str = "std_msgs";
-    const NAME: &'static str = "Header";
-    const FIELDS: &'static [(&'static str, &'static str)] =
-        &[("builtin_interfaces/Time", "stamp"), ("string", "frame_id")];
-}
+/// The `.msg` definition of [`Header`].
+pub static HEADER: MsgDef = MsgDef {
+    name: "std_msgs/msg/Header",
+    text: "builtin_interfaces/Time stamp\nstring frame_id\n",
+    deps: &[&TIME],
+    type_hash: "",
+};

@@ -8,13 +8,15 @@
 //! - [`params`]: the node's parameter table, validators, parameter files;
 //! - [`monitor`]: input checks, counters, levels and the messages (no DDS, tested alone);
 //! - [`node`]: context (ROS_DOMAIN_ID), subscriptions, the bounded queue, the analysis thread,
-//!   publishers of `/diagnostics` and `~/<axis>/state`, `/clock` as `rosgraph_msgs/msg/Clock`.
+//!   publishers of `/diagnostics` and `~/<axis>/state`, `/clock` as `rosgraph_msgs/msg/Clock`;
+//! - [`play`]: `fdavar play`, a recording replayed over DDS at its recorded pace.
 
 pub mod args;
 pub mod monitor;
 pub mod names;
 pub mod node;
 pub mod params;
+pub mod play;
 
 pub use node::{run, NodeConfig, NodeError};
 

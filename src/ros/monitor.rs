@@ -417,7 +417,8 @@ impl Monitor {
         self.recent_non_finite = [0; 6];
         let array = DiagnosticArray {
             header: Header {
-                stamp: Time::from_nanos(now_ns),
+                // A node time past 2038 cannot be a ROS Time: publish zero rather than fail.
+                stamp: Time::from_ns(now_ns).unwrap_or_default(),
                 frame_id: String::new(),
             },
             status,

@@ -222,7 +222,7 @@ impl NodeClock {
 }
 
 fn topic_type<M: RosMessage>() -> MessageTypeName {
-    MessageTypeName::new(M::PACKAGE, M::NAME)
+    MessageTypeName::new(M::DEF.package(), M::DEF.type_name())
 }
 
 fn status_qos(depth: usize) -> QosProfile {
@@ -460,6 +460,18 @@ fn subscribe<M: 'static + serde::de::DeserializeOwned>(
         .map_err(|e| ros_err(format!("subscription {name}"))(format!("{e:?}")))
 }
 
+/// A publisher of `M` on the absolute topic `name` (used by `fdavar play` too).
+///
+/// # Errors
+/// [`NodeError::Ros`] when the name is invalid or DDS refuses.
+pub fn publish_on<M: RosMessage>(
+    node: &mut Node,
+    name: &str,
+    qos: &QosProfile,
+) -> Result<Publisher<M>, NodeError> {
+    publish(node, name, topic_type::<M>(), qos)
+}
+
 fn publish<M: serde::Serialize>(
     node: &mut Node,
     name: &str,
@@ -515,14 +527,16 @@ fn receive_loop(
         // Edge-triggered: drain every source each wake-up (cheap when empty).
         if let (Some(c), Some(t)) = (clock_sub.as_deref(), sim_time) {
             while let Ok(Some((msg, _))) = c.take() {
-                t.store(msg.clock.to_nanos(), Ordering::Relaxed);
+                t.store(msg.clock.to_ns(), Ordering::Relaxed);
             }
         }
         loop {
             match imu.take() {
                 Ok(Some((msg, _))) => {
                     let input = Input::Imu {
-                        sample: msg.sample(),
+                        // A zero stamp stays zero here: the monitor decides (by
+                        // the stream's clock) what it means.
+                        sample: msg.to_sample(0),
                         frame_id: msg.header.frame_id,
                         receive_ns: clock.now_ns(),
                     };

@@ -285,12 +285,39 @@ def scenario_flood(peer):
            rate_s=sent / 5.0)
 
 
+def scenario_expect_samples(peer):
+    """Wait (bounded) until the node has counted exactly N samples (N = argv[2]), e.g. while
+    `fdavar play` replays a recording of N messages into it."""
+    want = int(sys.argv[2])
+    if not peer.wait_for_node():
+        finish(False, "fdavar not in the node graph")
+    seen = []
+
+    def done():
+        if peer.diagnostics:
+            gx = status(peer.diagnostics[-1], "gyro_x")
+            seen.append(int(kv(gx, "samples")))
+            peer.diagnostics.clear()
+        return bool(seen) and seen[-1] >= want
+
+    peer.spin_until(done, 60.0)
+    peer.diagnostics.clear()
+    peer.spin_until(lambda: len(peer.diagnostics) >= 1, 3.0)
+    last = status(peer.diagnostics[-1], "gyro_x") if peer.diagnostics else None
+    counts = {k: int(kv(last, k)) for k in ["samples", "drops", "gaps", "duplicates", "backwards"]} \
+        if last else {}
+    ok = counts.get("samples") == want and counts.get("gaps") == 0 and counts.get("drops") == 0
+    finish(ok, "" if ok else f"the node did not count exactly {want} samples", counts=counts,
+           rate_hz=kv(last, "rate_hz") if last else None)
+
+
 def main():
     rclpy.init()
     peer = Peer()
     scenario = sys.argv[1]
     {"diagnostics": scenario_diagnostics, "params": scenario_params,
-     "sim_time": scenario_sim_time, "bad_input": scenario_bad_input, "flood": scenario_flood}[scenario](peer)
+     "sim_time": scenario_sim_time, "bad_input": scenario_bad_input, "flood": scenario_flood,
+     "expect_samples": scenario_expect_samples}[scenario](peer)
 
 
 if __name__ == "__main__":

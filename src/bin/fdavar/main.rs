@@ -8,6 +8,7 @@ mod allan;
 mod davar;
 mod diagnose;
 mod fit;
+#[cfg(feature = "ros")]
 mod play;
 mod simulate;
 
@@ -53,6 +54,7 @@ enum Command {
     Fit(fit::Args),
     Diagnose(diagnose::Args),
     Simulate(simulate::Args),
+    #[cfg(feature = "ros")]
     Play(play::Args),
 }
 
@@ -71,6 +73,7 @@ fn main() -> ExitCode {
         Command::Fit(a) => fit::run(a),
         Command::Diagnose(a) => diagnose::run(a),
         Command::Simulate(a) => simulate::run(a),
+        #[cfg(feature = "ros")]
         Command::Play(a) => play::run(a),
     };
     match result {

@@ -72,7 +72,7 @@ fn reads_bags_written_by_independent_tools_exactly() {
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("expected.json")).unwrap())
             .unwrap();
     let cases = expected.as_object().unwrap();
-    assert_eq!(cases.len(), 10, "cases written: {:?}", cases.keys());
+    assert_eq!(cases.len(), 13, "cases written: {:?}", cases.keys());
     for (name, want) in cases {
         let bag = BagReader::open(dir.path().join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
         let imu = bag

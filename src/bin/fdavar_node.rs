@@ -24,8 +24,9 @@ fn main() -> ExitCode {
         );
         return ExitCode::from(1);
     }
-    let engine = fdavar::ros::default_engine(&config);
-    match fdavar::ros::run(&config, engine, Arc::new(AtomicBool::new(false))) {
+    let result = fdavar::ros::default_engine(&config)
+        .and_then(|engine| fdavar::ros::run(&config, engine, Arc::new(AtomicBool::new(false))));
+    match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("fdavar_node: error: {e}");

@@ -6,12 +6,14 @@
 //! - [`args`]: `--ros-args` (`-r`, `__ns`, `__node`, `-p`, `--params-file`, `--log-level`);
 //! - [`names`]: relative / private / absolute names and remaps, always absolute for ros2-client;
 //! - [`params`]: the node's parameter table, validators, parameter files;
+//! - [`engine`]: the offline F-DAVAR pipeline behind the node's engine trait;
 //! - [`monitor`]: input checks, counters, levels and the messages (no DDS, tested alone);
 //! - [`node`]: context (ROS_DOMAIN_ID), subscriptions, the bounded queue, the analysis thread,
 //!   publishers of `/diagnostics` and `~/<axis>/state`, `/clock` as `rosgraph_msgs/msg/Clock`;
 //! - [`play`]: `fdavar play`, a recording replayed over DDS at its recorded pace.
 
 pub mod args;
+pub mod engine;
 pub mod monitor;
 pub mod names;
 pub mod node;
@@ -20,10 +22,18 @@ pub mod play;
 
 pub use node::{run, NodeConfig, NodeError};
 
-/// The F-DAVAR engine the node drives for `config`.
+/// The F-DAVAR engine the node drives for `config`: the offline pipeline, live.
 ///
-/// `None` while the crate has no streaming pipeline to offer (the node then publishes input checks
-/// and counters only, and says so in each status message).
-pub fn default_engine(_config: &NodeConfig) -> Option<Box<dyn monitor::RowEngine>> {
-    None
+/// # Errors
+/// [`NodeError::Param`] when the DAVAR settings cannot run live.
+pub fn default_engine(
+    config: &NodeConfig,
+) -> Result<Option<Box<dyn monitor::RowEngine>>, NodeError> {
+    let engine = engine::PipelineEngine::new(config.davar_config.clone()).map_err(|e| {
+        NodeError::Param(params::ParamError::Invalid {
+            name: "(DAVAR settings)".to_string(),
+            reason: e.to_string(),
+        })
+    })?;
+    Ok(Some(Box::new(engine)))
 }

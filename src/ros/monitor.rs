@@ -27,7 +27,16 @@ pub trait RowEngine: Send {
     ///
     /// # Errors
     /// A reason when the engine cannot take the value (the node then keeps the old one).
-    fn reconfigure(&mut self, name: &str, value: &str) -> Result<(), String>;
+    fn reconfigure(&mut self, change: Change) -> Result<(), String>;
+}
+
+/// A live change for the engine.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Change {
+    /// New DAVAR settings (window policy, F̃, σ²_ref, τ grid, …), already validated.
+    Davar(Box<crate::pipeline::DavarConfig>),
+    /// A new model spec (comma-separated effects).
+    Model(String),
 }
 
 /// The kinds of bad input the node meets; each is logged once and counted.
@@ -181,9 +190,9 @@ impl Monitor {
     ///
     /// # Errors
     /// The engine's reason, or that no engine runs.
-    pub fn reconfigure(&mut self, name: &str, value: &str) -> Result<(), String> {
+    pub fn reconfigure(&mut self, change: Change) -> Result<(), String> {
         match self.engine.as_mut() {
-            Some(e) => e.reconfigure(name, value),
+            Some(e) => e.reconfigure(change),
             None => Err("no F-DAVAR engine in this build".to_string()),
         }
     }
@@ -377,7 +386,7 @@ impl Monitor {
                             suggestions.join(", ")
                         ),
                     )
-                } else if s.f_value > 3.0 * s.f_reference.max(f64::MIN_POSITIVE) {
+                } else if s.f_reference.is_finite() && s.f_value > 3.0 * s.f_reference {
                     (
                         Level::Warn,
                         format!(
@@ -469,7 +478,7 @@ mod tests {
             };
             vec![(Axis::GyroX, state)]
         }
-        fn reconfigure(&mut self, _: &str, _: &str) -> Result<(), String> {
+        fn reconfigure(&mut self, _: Change) -> Result<(), String> {
             Ok(())
         }
     }

@@ -9,7 +9,7 @@
 //! services on a channel and apply between two samples.
 
 use super::args::RosArgs;
-use super::monitor::{Monitor, MonitorSettings, RowEngine};
+use super::monitor::{Change, Monitor, MonitorSettings, RowEngine};
 use super::names::{check_node_name, normalise_namespace, resolve, NameError};
 use super::params::{self, ParamError, NODE_PARAMS};
 use crate::msgs::diagnostic_msgs::DiagnosticArray;
@@ -79,8 +79,12 @@ pub struct NodeConfig {
     pub name: String,
     /// Remaps from `-r from:=to`.
     pub remaps: Vec<(String, String)>,
-    /// The validated parameter values (defaults, files, `-p`).
+    /// The node's own parameter values (defaults, files, `-p`), validated.
     pub params: BTreeMap<String, ParameterValue>,
+    /// The DAVAR parameter values (same table as `fdavar davar --params`), validated.
+    pub davar: BTreeMap<String, crate::params::ParamValue>,
+    /// The DAVAR configuration they make.
+    pub davar_config: crate::pipeline::DavarConfig,
     /// DDS domain (`ROS_DOMAIN_ID`, default 0).
     pub domain_id: u16,
     /// `--log-level`: `debug`, `info` (default), `warn`, `error`, `fatal`.
@@ -114,6 +118,7 @@ impl NodeConfig {
             format!("{namespace}/{name}")
         };
         let params = params::startup_values(&ros.params_files, &ros.params, &fqn)?;
+        let (davar, davar_config) = params::davar_startup(&ros.params_files, &ros.params)?;
         let domain_id = match ros_domain_id.map(str::trim).filter(|s| !s.is_empty()) {
             None => 0,
             Some(s) => s
@@ -127,6 +132,8 @@ impl NodeConfig {
             name,
             remaps: ros.remaps,
             params,
+            davar,
+            davar_config,
             domain_id,
             log_level: ros.log_level.unwrap_or_else(|| "info".to_string()),
         };
@@ -175,6 +182,14 @@ impl NodeConfig {
             _ => String::new(),
         }
     }
+}
+
+/// A validated live parameter change, from the parameter services to the analysis thread.
+enum Control {
+    /// One of the node's own parameters.
+    Node(String, ParameterValue),
+    /// A DAVAR parameter: the whole new configuration.
+    Davar(String, Box<crate::pipeline::DavarConfig>),
 }
 
 /// What flows from the receive loop to the analysis thread.
@@ -250,8 +265,11 @@ pub fn run(
         .map_err(|e| ros_err("context")(format!("{e:?}")))?;
 
     // Parameter changes travel from the spinner's set action to the analysis thread.
-    let (param_tx, param_rx) = mpsc::channel::<(String, ParameterValue)>();
+    let (param_tx, param_rx) = mpsc::channel::<Control>();
     let param_tx = std::sync::Mutex::new(param_tx);
+    // The DAVAR values in force: a change is validated together with the others.
+    let davar_now = Arc::new(std::sync::Mutex::new(config.davar.clone()));
+    let davar_check = Arc::clone(&davar_now);
     // ros2-client also runs the validator and the set action on the declared (startup) values,
     // which were checked when read (defaults are trusted): until the node exists, both accept.
     let running = Arc::new(AtomicBool::new(false));
@@ -262,6 +280,12 @@ pub fn run(
         .parameter_validator(Box::new(move |name, value| {
             if !validating.load(Ordering::Acquire) {
                 return Ok(());
+            }
+            if params::is_davar(name) {
+                let current = davar_check
+                    .lock()
+                    .map_err(|_| "parameter lock poisoned".to_string())?;
+                return params::davar_change(&current, name, value).map(|_| ());
             }
             let spec = params::spec(name).ok_or_else(|| format!("unknown parameter '{name}'"))?;
             if !spec.live {
@@ -277,11 +301,21 @@ pub fn run(
             if !setting.load(Ordering::Acquire) {
                 return Ok(());
             }
-            let value = params::validate(name, value).map_err(|e| e.to_string())?;
+            let control = if params::is_davar(name) {
+                let mut current = davar_now
+                    .lock()
+                    .map_err(|_| "parameter lock poisoned".to_string())?;
+                let (next, config) = params::davar_change(&current, name, value)?;
+                *current = next;
+                Control::Davar(name.to_string(), Box::new(config))
+            } else {
+                let value = params::validate(name, value).map_err(|e| e.to_string())?;
+                Control::Node(name.to_string(), value)
+            };
             param_tx
                 .lock()
                 .map_err(|_| "parameter channel poisoned".to_string())?
-                .send((name.to_string(), value))
+                .send(control)
                 .map_err(|_| "analysis thread stopped".to_string())
         }));
     for spec in NODE_PARAMS {
@@ -291,6 +325,9 @@ pub fn run(
             .cloned()
             .unwrap_or_else(spec.default);
         options = options.declare_parameter(spec.name, value);
+    }
+    for (name, value) in &config.davar {
+        options = options.declare_parameter(name, params::ros_value(value));
     }
     let mut node = context
         .new_node(
@@ -584,7 +621,7 @@ struct Analysis {
 }
 
 impl Analysis {
-    fn run(mut self, rx: Receiver<Input>, params: Receiver<(String, ParameterValue)>) {
+    fn run(mut self, rx: Receiver<Input>, params: Receiver<Control>) {
         let mut next_publish = Instant::now() + self.publish_period;
         let mut drops_seen = 0;
         loop {
@@ -605,8 +642,18 @@ impl Analysis {
                 Err(RecvTimeoutError::Timeout) => {}
                 Err(RecvTimeoutError::Disconnected) => break,
             }
-            while let Ok((name, value)) = params.try_recv() {
-                self.apply(&name, &value);
+            while let Ok(control) = params.try_recv() {
+                match control {
+                    Control::Node(name, value) => self.apply(&name, &value),
+                    Control::Davar(name, config) => {
+                        match self.monitor.reconfigure(Change::Davar(config)) {
+                            Ok(()) => self
+                                .log
+                                .info(&format!("{name} changed: DAVAR pipeline restarted")),
+                            Err(e) => self.log.warn(&format!("{name} not applied: {e}")),
+                        }
+                    }
+                }
             }
             if Instant::now() >= next_publish {
                 let drops = self.drops.load(Ordering::Relaxed);
@@ -657,10 +704,12 @@ impl Analysis {
                 self.settings.stale_timeout_s = *s;
                 self.monitor.set_settings(self.settings);
             }
-            (_, ParameterValue::String(s)) => match self.monitor.reconfigure(name, s) {
-                Ok(()) => self.log.info(&format!("{name} = {s}")),
-                Err(e) => self.log.warn(&format!("{name} = {s} not applied: {e}")),
-            },
+            ("model", ParameterValue::String(s)) => {
+                match self.monitor.reconfigure(Change::Model(s.clone())) {
+                    Ok(()) => self.log.info(&format!("{name} = {s}")),
+                    Err(e) => self.log.warn(&format!("{name} = {s} not applied: {e}")),
+                }
+            }
             _ => self
                 .log
                 .warn(&format!("parameter {name} = {value:?} has no live effect")),

@@ -4,8 +4,16 @@
 //! values at startup, validation of `ros2 param set` at run time, and the docs all read it, so they
 //! cannot disagree. A refused value leaves everything unchanged and returns the reason to the caller
 //! (`SetParameters` answers `successful=False, reason=…`).
+//!
+//! The node has two groups of parameters: its own ([`NODE_PARAMS`]: rates, queue, QoS, model) and
+//! the DAVAR settings of [`crate::params::PARAMS`] (window policy, F̃, σ²_ref, τ grid, …), the same
+//! table and validation the offline `fdavar davar --params` uses. A DAVAR change is checked
+//! together with the other DAVAR values (e.g. `window.min` ≤ `window.max`) and must give a
+//! configuration that runs live.
 
 use super::args::yaml_to_param;
+use crate::params::ParamValue as DavarValue;
+use crate::pipeline::DavarConfig;
 use ros2_client::ParameterValue;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -302,9 +310,113 @@ pub fn startup_values(
         }
     }
     for (name, value) in overrides {
-        values.insert(name.clone(), validate(name, value)?);
+        if !is_davar(name) {
+            values.insert(name.clone(), validate(name, value)?);
+        }
     }
     Ok(values)
+}
+
+/// True for a DAVAR parameter (a name of [`crate::params::PARAMS`]).
+pub fn is_davar(name: &str) -> bool {
+    crate::params::spec(name).is_some()
+}
+
+/// A ROS parameter value as a parameter-file value (`None` for arrays and unset).
+pub fn davar_value(v: &ParameterValue) -> Option<DavarValue> {
+    Some(match v {
+        ParameterValue::Boolean(b) => DavarValue::Bool(*b),
+        ParameterValue::Integer(i) => DavarValue::Int(*i),
+        ParameterValue::Double(x) => DavarValue::Float(*x),
+        ParameterValue::String(s) => DavarValue::Str(s.clone()),
+        _ => return None,
+    })
+}
+
+/// A parameter-file value as a ROS parameter value.
+pub fn ros_value(v: &DavarValue) -> ParameterValue {
+    match v {
+        DavarValue::Bool(b) => ParameterValue::Boolean(*b),
+        DavarValue::Int(i) => ParameterValue::Integer(*i),
+        DavarValue::Float(x) => ParameterValue::Double(*x),
+        DavarValue::Str(s) => ParameterValue::String(s.clone()),
+    }
+}
+
+/// Checks a change of one DAVAR parameter against the current values of all of them.
+///
+/// Returns the new values and the configuration they make. The configuration must run live (the
+/// offline-only `sigma_ref.mode: record` is refused here).
+///
+/// # Errors
+/// The reason, naming the parameter: wrong type, out of range, inconsistent with another
+/// parameter, or not runnable live.
+pub fn davar_change(
+    current: &BTreeMap<String, DavarValue>,
+    name: &str,
+    value: &ParameterValue,
+) -> Result<(BTreeMap<String, DavarValue>, DavarConfig), String> {
+    let spec = crate::params::spec(name).ok_or_else(|| format!("unknown parameter '{name}'"))?;
+    let value = davar_value(value)
+        .ok_or_else(|| format!("parameter '{name}': arrays and unset values are not accepted"))?;
+    let value = spec.check(&value).map_err(|e| e.to_string())?;
+    let mut next = current.clone();
+    next.insert(name.to_string(), value);
+    let config = crate::params::config_from_params(&next).map_err(|e| e.to_string())?;
+    crate::pipeline::Pipeline::new(config.clone(), &crate::signal::Axis::ALL, None)
+        .map_err(|e| format!("parameter '{name}': {e}"))?;
+    Ok((next, config))
+}
+
+/// The DAVAR parameter values at startup: defaults, then the files' DAVAR keys, then `-p`.
+///
+/// # Errors
+/// [`ParamError`] for an unreadable file or a value the DAVAR table refuses.
+pub fn davar_startup(
+    files: &[std::path::PathBuf],
+    overrides: &[(String, ParameterValue)],
+) -> Result<(BTreeMap<String, DavarValue>, DavarConfig), ParamError> {
+    let mut values: BTreeMap<String, DavarValue> = crate::params::PARAMS
+        .iter()
+        .map(|p| (p.name.to_string(), p.default_value()))
+        .collect();
+    let invalid = |name: &str, reason: String| ParamError::Invalid {
+        name: name.to_string(),
+        reason,
+    };
+    for file in files {
+        let text = std::fs::read_to_string(file).map_err(|e| ParamError::File {
+            path: file.display().to_string(),
+            reason: e.to_string(),
+        })?;
+        let from_file = match crate::params::flatten_ros_params(&text) {
+            Ok(map) => map,
+            Err(crate::params::ParamsError::NoSection) => continue,
+            Err(e) => {
+                return Err(ParamError::File {
+                    path: file.display().to_string(),
+                    reason: e.to_string(),
+                })
+            }
+        };
+        for (name, value) in from_file {
+            if let Some(spec) = crate::params::spec(&name) {
+                let value = spec
+                    .check(&value)
+                    .map_err(|e| invalid(&name, e.to_string()))?;
+                values.insert(name, value);
+            }
+        }
+    }
+    for (name, value) in overrides.iter().filter(|(n, _)| is_davar(n)) {
+        let (next, _) = davar_change(&values, name, value).map_err(|r| invalid(name, r))?;
+        values = next;
+    }
+    let config = crate::params::config_from_params(&values)
+        .map_err(|e| invalid("(DAVAR settings)", e.to_string()))?;
+    crate::pipeline::Pipeline::new(config.clone(), &crate::signal::Axis::ALL, None)
+        .map_err(|e| invalid("(DAVAR settings)", e.to_string()))?;
+    Ok((values, config))
 }
 
 #[cfg(test)]
@@ -322,6 +434,37 @@ mod tests {
         assert!(e.to_string().contains("empty"), "{e}");
         let e = validate("model", &ParameterValue::String("N,warp_drive".into())).unwrap_err();
         assert!(e.to_string().contains("warp_drive"), "{e}");
+    }
+
+    #[test]
+    fn davar_changes_are_checked_against_the_other_davar_values() {
+        let (values, _) = davar_startup(&[], &[]).unwrap();
+        let (next, config) =
+            davar_change(&values, "window.min", &ParameterValue::Integer(201)).unwrap();
+        assert_eq!(next["window.min"], DavarValue::Int(201));
+        assert_eq!(config.policy.max_window(), 501);
+        let e = davar_change(&values, "window.min", &ParameterValue::Integer(900)).unwrap_err();
+        assert!(e.contains("window.max"), "{e}");
+        let e = davar_change(
+            &values,
+            "sigma_ref.mode",
+            &ParameterValue::String("record".into()),
+        )
+        .unwrap_err();
+        assert!(e.contains("record"), "{e}");
+        let e =
+            davar_change(&values, "window.min", &ParameterValue::String("x".into())).unwrap_err();
+        assert!(e.contains("window.min"), "{e}");
+        // -p of a DAVAR name reaches the DAVAR table, not the node's.
+        let (v, _) =
+            davar_startup(&[], &[("window.step".into(), ParameterValue::Integer(8))]).unwrap();
+        assert_eq!(v["window.step"], DavarValue::Int(8));
+        assert!(startup_values(
+            &[],
+            &[("window.step".into(), ParameterValue::Integer(8))],
+            "/fdavar"
+        )
+        .is_ok());
     }
 
     #[test]

@@ -125,15 +125,18 @@ def expected(messages):
 
 # --- rosbags -------------------------------------------------------------------------------------
 
-def write_rosbags(path: Path, messages, version: int, storage: str):
+def write_rosbags(path: Path, messages, version: int, storage: str, file_zstd: bool = False):
     from rosbags.rosbag2 import Writer
-    from rosbags.rosbag2.enums import StoragePlugin
+    from rosbags.rosbag2.enums import CompressionFormat, CompressionMode, StoragePlugin
     from rosbags.typesys import Stores, get_typestore
 
     ts = get_typestore(Stores.ROS2_JAZZY if version >= 9 else Stores.ROS2_HUMBLE)
     plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
     types = {"imu": "sensor_msgs/msg/Imu", "temp": "sensor_msgs/msg/Temperature", "string": "std_msgs/msg/String"}
-    with Writer(path, version=version, storage_plugin=plugin) as w:
+    w = Writer(path, version=version, storage_plugin=plugin)
+    if file_zstd:
+        w.set_compression(CompressionMode.FILE, CompressionFormat.ZSTD)
+    with w:
         conns = {}
         for topic, kind, log, f in messages:
             if topic not in conns:
@@ -185,6 +188,21 @@ def write_mcap(path: Path, messages, compression: str, chunked: bool, summary: b
             w.add_message(channel_id=channels[topic], log_time=log, publish_time=log,
                           data=encoders[topic](as_ros_dict(kind, fields)))
         w.finish()
+
+
+def write_split(path: Path, messages, parts: int, with_metadata: bool):
+    """A bag split into `parts` MCAP files `<name>_0.mcap`, `_1`, … (as `ros2 bag record
+    --max-bag-size` leaves it), with a hand-written metadata.yaml of version 5 or none at all."""
+    path.mkdir()
+    names = [f"{path.name}_{k}.mcap" for k in range(parts)]
+    per = -(-len(messages) // parts)
+    for k, name in enumerate(names):
+        write_mcap(path / name, messages[k * per:(k + 1) * per], "zstd", True, True)
+    if with_metadata:
+        files = "".join(f"    - {n}\n" for n in names)
+        (path / "metadata.yaml").write_text(
+            "rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: mcap\n"
+            f"  relative_file_paths:\n{files}  compression_format: ''\n  compression_mode: ''\n")
 
 
 def write_sqlite_by_hand(path: Path, messages, layout: str):
@@ -242,6 +260,9 @@ def main():
     case("mcap_lz4.mcap", 6, lambda p, m: write_mcap(p, m, "lz4", True, True))
     case("mcap_unchunked.mcap", 7, lambda p, m: write_mcap(p, m, "none", False, True))
     case("mcap_no_summary.mcap", 8, lambda p, m: write_mcap(p, m, "zstd", True, False))
+    case("rosbags_mcap_v9_file_zstd", 11, lambda p, m: write_rosbags(p, m, 9, "mcap", file_zstd=True))
+    case("split_with_metadata", 12, lambda p, m: write_split(p, m, 3, True))
+    case("split_without_metadata", 13, lambda p, m: write_split(p, m, 3, False))
     case("sqlite_no_schema_table", 9, lambda p, m: write_sqlite_by_hand(p, m, "none"))
     case("sqlite_humble_schema3", 10, lambda p, m: write_sqlite_by_hand(p, m, "humble"))
     (out / "expected.json").write_text(json.dumps(cases))

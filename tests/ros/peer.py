@@ -151,13 +151,26 @@ def scenario_diagnostics(peer):
         finish(False, "rate_hz is not about 200", **result)
     if gx.hardware_id != "imu_link":
         finish(False, "hardware_id is not the IMU frame", **result)
+    # The analysis: W(t) within the default window bounds, F a positive finite ratio.
+    w = int(kv(gx, "window_length") or 0)
+    f = float(kv(gx, "f_value") or "nan")
+    if not (171 <= w <= 501) or not (math.isfinite(f) and f > 0):
+        finish(False, "window_length / f_value missing or not sane in /diagnostics", **result)
     if have_typed:
         peer.spin_until(lambda: len(typed) > 0, 5.0)
         result["typed"] = len(typed)
-        if typed:
-            t = typed[-1]
-            result.update(window_length=t.window_length, f_value=t.f_value,
-                          coefficients=len(t.coefficients))
+        if not typed:
+            finish(False, "no fdavar_msgs/AxisState on ~/gyro_x/state", **result)
+        t = typed[-1]
+        taus = [p.tau_s for p in t.row]
+        result.update(typed_window=t.window_length, typed_f=t.f_value, row_points=len(t.row),
+                      coefficients=len(t.coefficients), axis=t.axis)
+        sane = (t.axis == "gyro_x" and 171 <= t.window_length <= 501 and math.isfinite(t.f_value)
+                and t.f_value > 0 and len(t.row) >= 3 and taus == sorted(taus)
+                and all(p.avar_low <= p.avar <= p.avar_high and p.edf > 0 for p in t.row)
+                and abs(t.sample_period_s - 0.005) < 1e-6)
+        if not sane:
+            finish(False, "typed AxisState not sane", **result)
     finish(True, "", **result)
 
 

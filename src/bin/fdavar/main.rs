@@ -8,6 +8,7 @@ mod allan;
 mod davar;
 mod diagnose;
 mod fit;
+mod info;
 #[cfg(feature = "ros")]
 mod play;
 mod simulate;
@@ -56,6 +57,7 @@ enum Command {
     Simulate(simulate::Args),
     #[cfg(feature = "ros")]
     Play(play::Args),
+    Info(info::Args),
 }
 
 fn main() -> ExitCode {
@@ -75,6 +77,7 @@ fn main() -> ExitCode {
         Command::Simulate(a) => simulate::run(a),
         #[cfg(feature = "ros")]
         Command::Play(a) => play::run(a),
+        Command::Info(a) => info::run(a),
     };
     match result {
         Ok(Outcome::Ok) => ExitCode::from(EXIT_OK),

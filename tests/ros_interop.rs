@@ -327,3 +327,140 @@ fn fdavar_play_replays_a_recording_into_the_node_without_loss() {
     assert_eq!(code, Some(0), "fdavar play: {err}");
     assert!(err.contains("1000 IMU"), "{err}");
 }
+
+/// A recording with a noise change: 3600 samples at 200 Hz, white noise whose level triples
+/// between samples 1200 and 2400 on every axis (the seed's test signal, at a ROS rate).
+fn write_recording(bag: &Path, n: i64) {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2016);
+    let normal = Normal::new(0.0, 1.0).unwrap();
+    let mut writer = fdavar::bag::BagWriter::create(bag).unwrap();
+    for k in 0..n {
+        let level = if (1200..2400).contains(&k) {
+            3e-3
+        } else {
+            1e-3
+        };
+        let mut v = [0.0; 6];
+        for x in &mut v {
+            *x = level * normal.sample(&mut rng);
+        }
+        let sample = fdavar::signal::ImuSample {
+            stamp_ns: 1_000_000_000 + k * 5_000_000,
+            gyro: [v[0], v[1], v[2]],
+            accel: [v[3], v[4], 9.81 + v[5]],
+        };
+        let log = 1_700_000_000_000_000_000 + k * 5_000_000 + 700_000;
+        writer.write_imu("/imu", log, &sample, "imu_link").unwrap();
+    }
+    writer.finish().unwrap();
+}
+
+/// The rows the offline pipeline gives for the recording, as the node would publish them.
+fn offline_rows(bag: &Path) -> Vec<serde_json::Value> {
+    let reader = fdavar::bag::BagReader::open(bag).unwrap();
+    let topic = reader.imu_topic(None).unwrap().name.clone();
+    let config = fdavar::params::config_from_params(&Default::default()).unwrap();
+    let axes = fdavar::signal::Axis::ALL;
+    let mut pipeline = fdavar::pipeline::Pipeline::new(config, &axes, None).unwrap();
+    let mut out = fdavar::pipeline::Output::default();
+    for m in reader.messages(&topic, None).unwrap() {
+        if let fdavar::bag::BagMessage::Imu { sample, .. } = m.unwrap() {
+            pipeline.push(&sample, &mut out);
+        }
+    }
+    let tau0 = pipeline.tau0().unwrap();
+    out.rows
+        .iter()
+        .map(|r| {
+            let mut state = fdavar::ros::engine::axis_state(r, tau0);
+            state.header.frame_id = "imu_link".into();
+            // Through text, like the node's file: equal f64 give equal text and equal parses
+            // (serde_json's default float parser is not exact, so to_value would differ by ulps).
+            serde_json::from_str(&serde_json::to_string(&state).unwrap()).unwrap()
+        })
+        .collect()
+}
+
+#[test]
+fn live_rows_equal_offline_rows_for_a_replayed_recording() {
+    // Rust only: fdavar play → fdavar_node (reliable) → dump_json, against the offline pipeline.
+    let dir = tempfile::tempdir().unwrap();
+    let bag = dir.path().join("rec");
+    write_recording(&bag, 3600);
+    let expected = offline_rows(&bag);
+    assert!(
+        expected.len() > 6 * 3000,
+        "offline gave {} rows",
+        expected.len()
+    );
+    let dump = dir.path().join("rows.jsonl");
+    let dump_arg = format!("dump_json:={}", dump.display());
+    let _node = start_node(
+        68,
+        &[
+            "-p",
+            "qos.reliable:=true",
+            "-p",
+            "publish_rate_hz:=10.0",
+            "-p",
+            &dump_arg,
+        ],
+    );
+    let out = Command::new(env!("CARGO_BIN_EXE_fdavar"))
+        .args([
+            "play",
+            bag.to_str().unwrap(),
+            "--reliable",
+            "--rate",
+            "4",
+            "--domain-id",
+            "68",
+            "--wait-s",
+            "30",
+        ])
+        .output()
+        .expect("run fdavar play");
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "fdavar play: {said}");
+    // Wait (bounded) for the node to have written every row.
+    let start = Instant::now();
+    let mut live: Vec<serde_json::Value> = Vec::new();
+    while start.elapsed() < Duration::from_secs(30) {
+        let text = std::fs::read_to_string(&dump).unwrap_or_default();
+        live = text
+            .lines()
+            .filter_map(|l| serde_json::from_str(l).ok())
+            .collect();
+        if live.len() >= expected.len() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    eprintln!("live rows {}, offline rows {}", live.len(), expected.len());
+    assert_eq!(
+        live.len(),
+        expected.len(),
+        "the node did not produce every row"
+    );
+    // Counters are the node's own (samples so far): compare the analysis, field by field.
+    for (i, (l, o)) in live.iter().zip(&expected).enumerate() {
+        for key in [
+            "header",
+            "axis",
+            "analysis_time_s",
+            "window_length",
+            "f_value",
+            "f_reference",
+            "sample_period_s",
+            "row",
+        ] {
+            assert_eq!(
+                l[key], o[key],
+                "row {i} ({} at {}): {key} differs",
+                o["axis"], o["analysis_time_s"]
+            );
+        }
+    }
+}

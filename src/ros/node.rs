@@ -662,6 +662,13 @@ impl Analysis {
                 }
                 drops_seen = drops;
                 self.publish();
+                // Rows reach the file at each publication, so that it can be read while the
+                // node runs.
+                if let Some(Err(e)) = self.dump.as_mut().map(std::io::Write::flush) {
+                    self.log
+                        .warn(&format!("dump_json: {e}; no more rows are written"));
+                    self.dump = None;
+                }
                 next_publish += self.publish_period;
                 if next_publish < Instant::now() {
                     next_publish = Instant::now() + self.publish_period;

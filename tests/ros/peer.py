@@ -217,8 +217,37 @@ def scenario_params(peer):
     ok = (len(results) == 3 and not results[0][0] and "(0, 100]" in results[0][1]
           and not results[1][0] and "startup" in results[1][1] and results[2][0]
           and after == 4.0)
-    finish(ok, "" if ok else "set_parameters results are not as expected",
-           names=names, results=results, before=before, after=after)
+    if not ok:
+        finish(False, "set_parameters results are not as expected", names=names,
+               results=results, before=before, after=after)
+    # DAVAR settings: checked together (window.min <= window.max), live-runnable only.
+    req = SetParameters.Request(parameters=[param("window.min", 900),
+                                            param("sigma_ref.mode", "record"),
+                                            param("window.min", 201)])
+    r = peer.call(SetParameters, f"{NODE}/set_parameters", req)
+    davar = [(x.successful, x.reason) for x in r.results] if r else []
+    wmin = get("window.min").integer_value
+    mode = get("sigma_ref.mode").string_value
+    ok = (len(davar) == 3 and not davar[0][0] and "window.max" in davar[0][1]
+          and not davar[1][0] and "record" in davar[1][1] and davar[2][0]
+          and wmin == 201 and mode == "running")
+    if not ok:
+        finish(False, "DAVAR parameter changes not as expected", names=names,
+               results=results, davar=davar, window_min=wmin, sigma_ref_mode=mode, after=after)
+    # A live window change reconfigures the running analysis: a fixed window of 301 samples.
+    if not peer.wait_for_match():
+        finish(False, "imu subscription never matched")
+    peer.publish_for(2.0)
+    r = peer.call(SetParameters, f"{NODE}/set_parameters", SetParameters.Request(
+        parameters=[param("window.length", 301), param("window.policy", "fixed")]))
+    live = [(x.successful, x.reason) for x in r.results] if r else []
+    peer.publish_for(3.0)
+    peer.diagnostics.clear()
+    peer.spin_until(lambda: len(peer.diagnostics) >= 1, 3.0)
+    w = kv(status(peer.diagnostics[-1], "gyro_x"), "window_length") if peer.diagnostics else None
+    ok = live == [(True, ""), (True, "")] and w == "301"
+    finish(ok, "" if ok else "live window change did not reach the analysis", davar=davar,
+           results=results, live=live, window_length=w)
 
 
 def scenario_sim_time(peer):

@@ -12,7 +12,7 @@ use super::args::RosArgs;
 use super::monitor::{Change, Monitor, MonitorSettings, RowEngine};
 use super::names::{check_node_name, normalise_namespace, resolve, NameError};
 use super::params::{self, ParamError, NODE_PARAMS};
-use crate::msgs::diagnostic_msgs::DiagnosticArray;
+use crate::msgs::diagnostic_msgs::{DiagnosticArray, KeyValue};
 use crate::msgs::fdavar_msgs::AxisState;
 use crate::msgs::rosgraph_msgs::Clock;
 use crate::msgs::sensor_msgs::{Imu, Temperature};
@@ -198,7 +198,42 @@ enum Input {
         sample: ImuSample,
         frame_id: String,
         receive_ns: i64,
+        /// When the receive loop took it off DDS (for the receive-to-update latency).
+        received: Instant,
     },
+}
+
+/// Receive-to-update latencies of the most recent samples (a bounded ring).
+///
+/// Why in the node: whether the analysis keeps up with the IMU is a property of the running
+/// system; `/diagnostics` shows its median and 99th percentile.
+struct Latency {
+    ring: Vec<f64>,
+    next: usize,
+}
+
+impl Latency {
+    const CAPACITY: usize = 8192;
+
+    fn record(&mut self, seconds: f64) {
+        if self.ring.len() < Self::CAPACITY {
+            self.ring.push(seconds);
+        } else {
+            self.ring[self.next] = seconds;
+        }
+        self.next = (self.next + 1) % Self::CAPACITY;
+    }
+
+    /// (p50, p99) in milliseconds, if any sample was recorded.
+    fn percentiles_ms(&self) -> Option<(f64, f64)> {
+        if self.ring.is_empty() {
+            return None;
+        }
+        let mut sorted = self.ring.clone();
+        sorted.sort_by(f64::total_cmp);
+        let at = |q: f64| sorted[((sorted.len() - 1) as f64 * q).round() as usize] * 1e3;
+        Some((at(0.5), at(0.99)))
+    }
 }
 
 /// A logger honouring `--log-level`, writing ROS-style lines to stderr.
@@ -440,6 +475,10 @@ pub fn run(
         drops: Arc::clone(&drops),
         dump,
         stop: Arc::clone(&stop),
+        latency: Latency {
+            ring: Vec::new(),
+            next: 0,
+        },
     };
     let analysis_thread = std::thread::Builder::new()
         .name("fdavar-analysis".into())
@@ -495,6 +534,18 @@ fn subscribe<M: 'static + serde::de::DeserializeOwned>(
     let topic = topic(node, name, type_name, qos)?;
     node.create_subscription(&topic, Some(qos.clone()))
         .map_err(|e| ros_err(format!("subscription {name}"))(format!("{e:?}")))
+}
+
+/// A subscription to `M` on the absolute topic `name` (used by the node benchmark).
+///
+/// # Errors
+/// [`NodeError::Ros`] when the name is invalid or DDS refuses.
+pub fn subscribe_on<M: RosMessage + 'static>(
+    node: &mut Node,
+    name: &str,
+    qos: &QosProfile,
+) -> Result<Subscription<M>, NodeError> {
+    subscribe(node, name, topic_type::<M>(), qos)
 }
 
 /// A publisher of `M` on the absolute topic `name` (used by `fdavar play` too).
@@ -576,6 +627,7 @@ fn receive_loop(
                         sample: msg.to_sample(0),
                         frame_id: msg.header.frame_id,
                         receive_ns: clock.now_ns(),
+                        received: Instant::now(),
                     };
                     match tx.try_send(input) {
                         Ok(()) => {}
@@ -618,6 +670,7 @@ struct Analysis {
     drops: Arc<AtomicU64>,
     dump: Option<std::io::BufWriter<std::fs::File>>,
     stop: Arc<AtomicBool>,
+    latency: Latency,
 }
 
 impl Analysis {
@@ -631,10 +684,12 @@ impl Analysis {
                     sample,
                     frame_id,
                     receive_ns,
+                    received,
                 }) => {
                     for line in self.monitor.push(sample, &frame_id, receive_ns) {
                         self.log.warn(line);
                     }
+                    self.latency.record(received.elapsed().as_secs_f64());
                     if self.dump.is_some() {
                         self.dump_rows();
                     }
@@ -724,7 +779,13 @@ impl Analysis {
     }
 
     fn publish(&mut self) {
-        let (array, states, line) = self.monitor.report(self.clock.now_ns());
+        let (mut array, states, line) = self.monitor.report(self.clock.now_ns());
+        if let Some((p50, p99)) = self.latency.percentiles_ms() {
+            for status in &mut array.status {
+                status.values.push(KeyValue::new("latency_p50_ms", format!("{p50:.3}")));
+                status.values.push(KeyValue::new("latency_p99_ms", format!("{p99:.3}")));
+            }
+        }
         if let Some(line) = line {
             self.log.warn(line);
         }

@@ -464,3 +464,32 @@ fn live_rows_equal_offline_rows_for_a_replayed_recording() {
         }
     }
 }
+
+#[test]
+fn colcon_workspace_has_the_node_where_ros2_run_looks_and_importable_messages() {
+    // Built by `.ci/setup-ros.sh` (colcon build of the repository as a workspace package).
+    let Some(py) = python() else { return };
+    let install = crate_root().join("target/colcon_ws/install");
+    let node = install.join("fdavar/lib/fdavar/fdavar_node");
+    if !node.is_file() {
+        let why = format!("{} missing: run .ci/setup-ros.sh .venv", node.display());
+        assert!(std::env::var("FDAVAR_REQUIRE_PYTHON").as_deref() != Ok("1"), "{why}");
+        eprintln!("skipped: {why}");
+        return;
+    }
+    // It is our node: a bad argument is refused with our message and exit code 1.
+    let out = Command::new(&node).args(["--ros-args", "--bogus"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--ros-args: unknown argument"));
+    // fdavar_msgs imports and decodes from the install tree (what `. install/setup.sh` gives).
+    let script = "from fdavar_msgs.msg import AxisState, DavarPoint; \
+                  m = AxisState(); m.window_length = 171; m.row = [DavarPoint(tau_s=0.03)]; \
+                  print(type(m).__name__, m.window_length, len(m.row))";
+    let out = Command::new("bash")
+        .arg("-c")
+        .arg(format!(". {}/setup.sh && {} -c '{script}'", install.display(), py.display()))
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(said.contains("AxisState 171 1"), "stdout {said}\nstderr {}", String::from_utf8_lossy(&out.stderr));
+}

@@ -468,6 +468,20 @@ mod tests {
     }
 
     #[test]
+    fn the_shipped_parameter_files_are_valid_for_the_node() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("launch_params");
+        let files = [dir.join("default.yaml"), dir.join("node.yaml")];
+        let node = startup_values(&files, &[], "/fdavar").unwrap();
+        assert_eq!(node["queue_size"], ParameterValue::Integer(10_000));
+        let (davar, _) = davar_startup(&files, &[]).unwrap();
+        assert_eq!(davar["window.max"], DavarValue::Int(501));
+        // Every default of the node table matches node.yaml, so the file documents the defaults.
+        for spec in NODE_PARAMS {
+            assert_eq!(node[spec.name], (spec.default)(), "{}", spec.name);
+        }
+    }
+
+    #[test]
     fn integers_are_accepted_for_doubles() {
         assert_eq!(
             validate("publish_rate_hz", &ParameterValue::Integer(2)).unwrap(),

@@ -40,6 +40,8 @@ pub mod bag;
 pub mod davar;
 pub mod model;
 pub mod msgs;
+pub mod params;
+pub mod pipeline;
 pub mod report;
 pub mod signal;
 pub mod sim;

@@ -7,6 +7,7 @@
 //! No I/O and no ROS here: bag readers and the node convert their messages into [`ImuSample`].
 
 mod period;
+pub mod text;
 
 pub use period::{nominal_period, PeriodEstimator};
 

@@ -8,6 +8,7 @@ mod allan;
 mod davar;
 mod diagnose;
 mod fit;
+mod info;
 mod play;
 mod simulate;
 
@@ -54,6 +55,7 @@ enum Command {
     Diagnose(diagnose::Args),
     Simulate(simulate::Args),
     Play(play::Args),
+    Info(info::Args),
 }
 
 fn main() -> ExitCode {
@@ -72,6 +74,7 @@ fn main() -> ExitCode {
         Command::Diagnose(a) => diagnose::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::Play(a) => play::run(a),
+        Command::Info(a) => info::run(a),
     };
     match result {
         Ok(Outcome::Ok) => ExitCode::from(EXIT_OK),

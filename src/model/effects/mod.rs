@@ -9,10 +9,46 @@ use rand::RngCore;
 use serde::{Deserialize, Serialize};
 use std::fmt::Debug;
 
+mod bias_instability;
+mod bias_step;
+mod g_sensitivity;
+mod gauss_markov;
+mod noise_burst;
+mod quantization;
+mod ramp;
+mod random_walk;
+mod sinusoid;
+mod temperature;
+mod white;
+
+pub use bias_instability::BiasInstability;
+pub use bias_step::BiasStep;
+pub use g_sensitivity::GSensitivity;
+pub use gauss_markov::GaussMarkov;
+pub use noise_burst::NoiseBurst;
+pub use quantization::Quantization;
+pub use ramp::Ramp;
+pub use random_walk::RandomWalk;
+pub use sinusoid::Sinusoid;
+pub use temperature::Temperature;
+pub use white::White;
+
 /// The registry: every effect kind, in the order of `--help`, reports and suggestions.
 ///
 /// Base noise terms first (IEEE 952: Q, N, B, K, R), then the effects beyond them.
-pub static REGISTRY: &[&dyn EffectKind] = &[];
+pub static REGISTRY: &[&dyn EffectKind] = &[
+    &quantization::KIND,
+    &white::KIND,
+    &bias_instability::KIND,
+    &random_walk::KIND,
+    &ramp::KIND,
+    &sinusoid::KIND,
+    &gauss_markov::KIND,
+    &bias_step::KIND,
+    &noise_burst::KIND,
+    &temperature::KIND,
+    &g_sensitivity::KIND,
+];
 
 /// Looks a kind up by id (`white`) or alias (`N`).
 pub fn find(name: &str) -> Option<&'static dyn EffectKind> {
@@ -30,6 +66,20 @@ pub enum Domain {
     Spectral,
     /// Non-stationary or driven by another signal: estimated in the time domain.
     TimeDomain,
+}
+
+/// When an effect is applied while a recording is simulated.
+///
+/// Most effects add a signal; a few act on the sensor's output (quantization rounds what the
+/// others produced), so the simulator applies every `Additive` effect of an axis first, in
+/// registry order, then the `Output` ones.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SimStage {
+    /// Adds a signal to the axis.
+    Additive,
+    /// Transforms the sum of the additive effects (rounding, saturation).
+    Output,
 }
 
 /// What evidence the diagnosis needs before it may suggest an effect (DESIGN §6).
@@ -182,6 +232,84 @@ pub trait EffectKind: Sync {
     /// # Errors
     /// [`ParamError`] naming the parameter that is NaN, out of bounds or inconsistent.
     fn build(&self, values: &[f64]) -> Result<Box<dyn Effect>, ParamError>;
+    /// When the simulator applies it; [`SimStage::Additive`] unless the kind says otherwise.
+    fn sim_stage(&self) -> SimStage {
+        SimStage::Additive
+    }
+}
+
+/// The registry entry of one effect file: plain data describing the kind, plus its constructor.
+///
+/// Every effect file declares one `static KIND: KindInfo`; keeping the kind as data (rather than
+/// one hand-written `impl EffectKind` per file) keeps the files to their physics.
+pub struct KindInfo {
+    /// Contract id.
+    pub id: &'static str,
+    /// Short alias (IEEE 952 letter) if any.
+    pub alias: Option<&'static str>,
+    /// Parameter schema in `build` order.
+    pub schema: &'static [ParamSpec],
+    /// Where the effect is estimated.
+    pub domain: Domain,
+    /// What the diagnosis needs before suggesting it.
+    pub evidence: Evidence,
+    /// When the simulator applies it.
+    pub stage: SimStage,
+    /// Builds the effect from values already checked against `schema`.
+    pub construct: fn(&[f64]) -> Result<Box<dyn Effect>, ParamError>,
+}
+
+impl EffectKind for KindInfo {
+    fn id(&self) -> &'static str {
+        self.id
+    }
+    fn alias(&self) -> Option<&'static str> {
+        self.alias
+    }
+    fn schema(&self) -> &'static [ParamSpec] {
+        self.schema
+    }
+    fn domain(&self) -> Domain {
+        self.domain
+    }
+    fn evidence(&self) -> Evidence {
+        self.evidence
+    }
+    fn build(&self, values: &[f64]) -> Result<Box<dyn Effect>, ParamError> {
+        check_params(self.id, self.schema, values)?;
+        (self.construct)(values)
+    }
+    fn sim_stage(&self) -> SimStage {
+        self.stage
+    }
+}
+
+/// Pairs a schema with values into [`Param`]s (what [`Effect::params`] returns).
+fn params_of(schema: &'static [ParamSpec], values: &[f64]) -> Vec<Param> {
+    schema
+        .iter()
+        .zip(values)
+        .map(|(&spec, &value)| Param { spec, value })
+        .collect()
+}
+
+/// Index of the first sample at or after `time_s`, for samples at `n·dt` (clamped to `len`).
+///
+/// A tolerance of 10⁻⁶ sample absorbs the rounding of `time_s / dt`, so that a time written as
+/// 36 s with dt = 0.03 s lands on sample 1200, not 1201.
+fn first_index_at(time_s: f64, dt: f64, len: usize) -> usize {
+    let n = (time_s / dt - 1e-6).ceil();
+    if n <= 0.0 {
+        0
+    } else {
+        (n as usize).min(len)
+    }
+}
+
+/// Draws one standard normal value from any `RngCore`.
+fn std_normal(rng: &mut dyn RngCore) -> f64 {
+    use rand_distr::Distribution;
+    rand_distr::StandardNormal.sample(rng)
 }
 
 /// What an effect needs from the rest of the recording to simulate itself.
@@ -193,7 +321,8 @@ pub struct SimContext<'a> {
     pub white_sigma: f64,
     /// Temperature at each sample, °C, when the recording has one.
     pub temperature_c: Option<&'a [f64]>,
-    /// The three accel axes at each sample, m/s², when simulating a gyro axis.
+    /// The true specific force on the three accel axes at each sample (gravity and vibration,
+    /// without the accelerometer's own noise), m/s², when simulating a gyro axis.
     pub accel: Option<[&'a [f64]; 3]>,
 }
 

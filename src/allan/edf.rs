@@ -1,0 +1,351 @@
+//! Equivalent degrees of freedom (Greenhall's algorithm) and χ² confidence intervals.
+//!
+//! An Allan-family estimate is a sum of squared, correlated differences; its distribution is close
+//! to a scaled χ² whose degrees of freedom (the EDF) depend on the estimator, the averaging factor,
+//! the record length and the power-law noise type α. Greenhall's generalized algorithm computes
+//! that EDF for every variance built from d-th differences of phase (d = 2: Allan, 3: Hadamard),
+//! overlapped or not, modified or not, from the exact autocovariance of the differences. It is what
+//! Stable32 uses, and it reproduces Stable32's confidence bounds on the Cs5071A reference tables.
+//!
+//! Rejected alternative: the closed forms of NIST SP 1065 Table 5 (Howe–Allan–Barnes) cover only
+//! OADEV with five noise types, are approximations, and disagree with Stable32 by several percent
+//! at large τ.
+//!
+//! # References
+//! - Greenhall C. A., Riley W. J., "Uncertainty of stability variances based on finite differences",
+//!   Proc. 35th PTTI Meeting, 2003 (the algorithm, Eqs. 7–13 and Tables 1–3).
+//! - Riley W. J., "Handbook of Frequency Stability Analysis", NIST SP 1065, 2008, §5.3 (χ² intervals).
+
+use statrs::distribution::{ChiSquared, Continuous, ContinuousCDF};
+
+/// The shape of a variance for Greenhall's EDF: difference order, overlap and modification.
+///
+/// Why a separate type: the EDF does not depend on which named estimator produced a variance, only
+/// on these three facts, and keeping them apart lets a new estimator reuse the algorithm.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct VarianceShape {
+    /// Order of the phase difference: 2 for Allan variances, 3 for Hadamard variances.
+    pub d: u32,
+    /// True when the estimator uses every start index (stride 1), false for stride m.
+    pub overlapping: bool,
+    /// True for modified variances (phase averaged over m samples before differencing).
+    pub modified: bool,
+}
+
+/// Largest J for which the basic sum is evaluated directly (Greenhall's J_max).
+const J_MAX: f64 = 100.0;
+
+/// Greenhall's equivalent degrees of freedom of a variance estimate.
+///
+/// Use it for any estimate built from d-th differences of `n` phase points at averaging factor `m`
+/// under power-law noise S_y(f) ∝ f^α. Returns `None` when the combination is outside the algorithm
+/// (α + 2d ≤ 1, i.e. a noise too red for the difference order, α outside −4..=2, or fewer points
+/// than one difference needs).
+///
+/// # Formula
+/// ```text
+/// L = m/F + m·d,  M = 1 + ⌊S·(N − L)/m⌋,  J = min(M, (d+1)·S),  r = M/S
+/// BasicSum(J, M, S, F) = sz(0)² + (1 − J/M)·sz(J/S)² + 2·Σ_{j=1}^{J−1} (1 − j/M)·sz(j/S)²
+/// 1/edf = BasicSum / (M·sz(0)²)                        when J ≤ J_max
+/// 1/edf = (a0 − a1/r)/r   (Tables 1, 2; Table 3 scale for α = 1)  when J > J_max, r > d + 1
+/// 1/edf = BasicSum(J_max, J_max, J_max/r, F′) / (J_max·sz(0)²)   otherwise
+/// sz(t) = Σ_k (−1)^k·C(2d, d+k)·sx(t + k),  sx(t) = F²·(2·sw(t) − sw(t − 1/F) − sw(t + 1/F))
+/// sw(t) = −|t|, t²ln|t|, |t|³, t⁴ln|t|, |t|⁵, t⁶ln|t|, |t|⁷   for α = 2, 1, 0, −1, −2, −3, −4
+/// ```
+/// where N = `n` phase points, F = 1 for modified variances and m otherwise, S = m when
+/// overlapping and 1 otherwise, and F = ∞ means sx(t) = sw(t) with α + 2 (sign conventions of sw
+/// drop out because only squares of sz enter).
+///
+/// # References
+/// Greenhall C. A., Riley W. J., "Uncertainty of stability variances based on finite differences",
+/// Proc. 35th PTTI, 2003.
+///
+/// ```
+/// use fdavar::allan::edf::{greenhall_edf, VarianceShape};
+/// // White PM, OADEV at m = 1 on the Cs5071A record (556 990 points): M = 556 988 terms and
+/// // edf = M / (C(8,4)/C(4,2)² − 1/M) ≈ M·18/35, which gives Stable32's bound 3.3128e-10.
+/// let oadev = VarianceShape { d: 2, overlapping: true, modified: false };
+/// let edf = greenhall_edf(2, oadev, 1, 556_990).unwrap();
+/// assert!((edf - 556_988.0 * 18.0 / 35.0).abs() < 1.0);
+/// ```
+pub fn greenhall_edf(alpha: i32, shape: VarianceShape, m: usize, n: usize) -> Option<f64> {
+    let d = shape.d;
+    if !(1..=3).contains(&d) || !(-4..=2).contains(&alpha) || alpha + 2 * d as i32 <= 1 || m == 0 {
+        return None;
+    }
+    let mf = m as f64;
+    let df = f64::from(d);
+    let f = if shape.modified { 1.0 } else { mf };
+    let s = if shape.overlapping { mf } else { 1.0 };
+    let l = mf / f + mf * df;
+    if (n as f64) < l + 1.0 {
+        return None;
+    }
+    let big_m = 1.0 + (s * (n as f64 - l) / mf).floor();
+    let j = big_m.min((df + 1.0) * s);
+    let r = big_m / s;
+    let sz0 = |f: f64| sz(0.0, f, alpha, d);
+    let inv_edf = if shape.modified {
+        // Case 1: modified variances, every α.
+        if j <= J_MAX {
+            basic_sum(j, big_m, s, 1.0, alpha, d) / (sz0(1.0).powi(2) * big_m)
+        } else if r > df + 1.0 {
+            let (a0, a1) = table1(alpha, d)?;
+            (a0 - a1 / r) / r
+        } else {
+            basic_sum(J_MAX, J_MAX, J_MAX / r, 1.0, alpha, d) / (sz0(1.0).powi(2) * J_MAX)
+        }
+    } else if alpha <= 0 {
+        // Case 2: unmodified, α ≤ 0.
+        if j <= J_MAX {
+            let fp = if mf * (df + 1.0) <= J_MAX { mf } else { f64::INFINITY };
+            basic_sum(j, big_m, s, fp, alpha, d) / (sz0(fp).powi(2) * big_m)
+        } else if r > df + 1.0 {
+            let (a0, a1) = table2(alpha, d)?;
+            (a0 - a1 / r) / r
+        } else {
+            let inf = f64::INFINITY;
+            basic_sum(J_MAX, J_MAX, J_MAX / r, inf, alpha, d) / (sz0(inf).powi(2) * J_MAX)
+        }
+    } else if alpha == 1 {
+        // Case 3: unmodified, flicker PM (the variance depends on ln m).
+        if j <= J_MAX {
+            basic_sum(j, big_m, s, mf, 1, d) / (sz0(mf).powi(2) * big_m)
+        } else {
+            let (b0, b1) = table3(d);
+            let scale = (b0 + b1 * mf.ln()).powi(2);
+            if r > df + 1.0 {
+                let (a0, a1) = table2(alpha, d)?;
+                (a0 - a1 / r) / (scale * r)
+            } else {
+                let mp = J_MAX / r;
+                basic_sum(J_MAX, J_MAX, mp, mp, 1, d) / (scale * J_MAX)
+            }
+        }
+    } else {
+        // Case 4: unmodified, white PM.
+        let k = r.ceil();
+        if k <= df {
+            // Few differences: the basic sum is exact and J ≤ (d+1)·S stays small enough here.
+            basic_sum(j, big_m, s, mf, alpha, d) / (sz0(mf).powi(2) * big_m)
+        } else {
+            let a0 = binomial(4 * d, 2 * d) / binomial(2 * d, d).powi(2);
+            let a1 = df / 2.0;
+            (a0 - a1 / r) / big_m
+        }
+    };
+    (inv_edf.is_finite() && inv_edf > 0.0).then(|| 1.0 / inv_edf)
+}
+
+/// Greenhall's basic sum, Eq. (10).
+fn basic_sum(j: f64, big_m: f64, s: f64, f: f64, alpha: i32, d: u32) -> f64 {
+    let first = sz(0.0, f, alpha, d).powi(2);
+    let second = (1.0 - j / big_m) * sz(j / s, f, alpha, d).powi(2);
+    let third: f64 = (1..j as usize)
+        .map(|jj| {
+            let jj = jj as f64;
+            2.0 * (1.0 - jj / big_m) * sz(jj / s, f, alpha, d).powi(2)
+        })
+        .sum();
+    first + second + third
+}
+
+/// Eq. (9): the d-th difference of sx.
+fn sz(t: f64, f: f64, alpha: i32, d: u32) -> f64 {
+    let d = d as i32;
+    (-d..=d)
+        .map(|k| {
+            let c = binomial((2 * d) as u32, (d + k) as u32);
+            let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
+            sign * c * sx(t + f64::from(k), f, alpha)
+        })
+        .sum::<f64>()
+}
+
+/// Eq. (8): the filter of the phase samples (F = ∞: no averaging filter, one more integration).
+fn sx(t: f64, f: f64, alpha: i32) -> f64 {
+    if f.is_infinite() {
+        return sw(t, alpha + 2);
+    }
+    f * f * (2.0 * sw(t, alpha) - sw(t - 1.0 / f, alpha) - sw(t + 1.0 / f, alpha))
+}
+
+/// Eq. (7): the generalized autocovariance of power-law noise (signs dropped: only squares enter).
+fn sw(t: f64, alpha: i32) -> f64 {
+    let a = t.abs();
+    let tlog = |p: i32| if a == 0.0 { 0.0 } else { t.powi(p) * a.ln() };
+    match alpha {
+        2 => -a,
+        1 => tlog(2),
+        0 => a.powi(3),
+        -1 => tlog(4),
+        -2 => a.powi(5),
+        -3 => tlog(6),
+        _ => a.powi(7),
+    }
+}
+
+fn binomial(n: u32, k: u32) -> f64 {
+    (0..k).fold(1.0, |acc, i| acc * f64::from(n - i) / f64::from(i + 1))
+}
+
+/// Table 1 (modified variances): (a0, a1) by α (rows 2 … −4) and d (columns 1 … 3).
+fn table1(alpha: i32, d: u32) -> Option<(f64, f64)> {
+    const T: [[(f64, f64); 3]; 7] = [
+        [(2.0 / 3.0, 1.0 / 3.0), (7.0 / 9.0, 1.0 / 2.0), (22.0 / 25.0, 2.0 / 3.0)],
+        [(0.840, 0.345), (0.997, 0.616), (1.141, 0.843)],
+        [(1.079, 0.368), (1.033, 0.607), (1.184, 0.848)],
+        [(f64::NAN, f64::NAN), (1.048, 0.534), (1.180, 0.816)],
+        [(f64::NAN, f64::NAN), (1.302, 0.535), (1.175, 0.777)],
+        [(f64::NAN, f64::NAN), (f64::NAN, f64::NAN), (1.194, 0.703)],
+        [(f64::NAN, f64::NAN), (f64::NAN, f64::NAN), (1.489, 0.702)],
+    ];
+    table_entry(&T, alpha, d)
+}
+
+/// Table 2 (unmodified variances): (a0, a1) by α and d.
+fn table2(alpha: i32, d: u32) -> Option<(f64, f64)> {
+    const T: [[(f64, f64); 3]; 7] = [
+        [(3.0 / 2.0, 1.0 / 2.0), (35.0 / 18.0, 1.0), (231.0 / 100.0, 3.0 / 2.0)],
+        [(78.6, 25.2), (790.0, 410.0), (9950.0, 6520.0)],
+        [(2.0 / 3.0, 1.0 / 6.0), (2.0 / 3.0, 1.0 / 3.0), (7.0 / 9.0, 1.0 / 2.0)],
+        [(f64::NAN, f64::NAN), (0.852, 0.375), (0.997, 0.617)],
+        [(f64::NAN, f64::NAN), (1.079, 0.368), (1.033, 0.607)],
+        [(f64::NAN, f64::NAN), (f64::NAN, f64::NAN), (1.053, 0.553)],
+        [(f64::NAN, f64::NAN), (f64::NAN, f64::NAN), (1.302, 0.535)],
+    ];
+    table_entry(&T, alpha, d)
+}
+
+/// Table 3 (unmodified, α = 1): (b0, b1) by d.
+fn table3(d: u32) -> (f64, f64) {
+    [(6.0, 4.0), (15.23, 12.0), (47.8, 40.0)][(d - 1) as usize]
+}
+
+fn table_entry(t: &[[(f64, f64); 3]; 7], alpha: i32, d: u32) -> Option<(f64, f64)> {
+    let row = usize::try_from(2 - alpha).ok()?;
+    let e = *t.get(row)?.get(usize::try_from(d).ok()?.checked_sub(1)?)?;
+    (!e.0.is_nan()).then_some(e)
+}
+
+/// The two-sided 68.27 % ("one sigma") confidence level, erf(1/√2).
+pub const ONE_SIGMA: f64 = 0.682_689_492_137_085_9;
+
+/// χ² confidence interval of a variance estimate with `edf` degrees of freedom.
+///
+/// Returns `(low, high)` for the variance (take square roots for deviations). `confidence` is the
+/// two-sided level, e.g. [`ONE_SIGMA`]. Returns `None` when `edf` is not positive and finite or
+/// `confidence` is outside (0, 1).
+///
+/// # Formula
+/// ```text
+/// low = edf·σ² / χ²(1 − p/2 ; edf),   high = edf·σ² / χ²(p/2 ; edf),   p = 1 − confidence
+/// ```
+/// where χ²(q ; ν) is the q-quantile of the χ² distribution with ν degrees of freedom.
+///
+/// # References
+/// Riley W. J., NIST SP 1065, 2008, §5.3.3, Eq. (45).
+///
+/// ```
+/// use fdavar::allan::edf::{chi2_interval, ONE_SIGMA};
+/// let (lo, hi) = chi2_interval(1.0, 10.0, ONE_SIGMA).unwrap();
+/// // χ²(0.8413; 10) = 14.0697, χ²(0.1587; 10) = 5.6466
+/// assert!((lo - 10.0 / 14.0697).abs() < 1e-4 && (hi - 10.0 / 5.6466).abs() < 1e-4);
+/// ```
+pub fn chi2_interval(avar: f64, edf: f64, confidence: f64) -> Option<(f64, f64)> {
+    if !(edf.is_finite() && edf > 0.0 && confidence > 0.0 && confidence < 1.0) {
+        return None;
+    }
+    let p = (1.0 - confidence) / 2.0;
+    let lo_q = chi2_quantile(p, edf)?;
+    let hi_q = chi2_quantile(1.0 - p, edf)?;
+    Some((edf * avar / hi_q, edf * avar / lo_q))
+}
+
+/// The q-quantile of χ²(ν): Wilson–Hilferty start, polished by Newton steps on statrs' CDF.
+///
+/// statrs' own `inverse_cdf` runs a fixed, short bisection that is inaccurate for the very large
+/// EDF (10⁵ and more) of long records, hence the better starting point.
+fn chi2_quantile(q: f64, nu: f64) -> Option<f64> {
+    let dist = ChiSquared::new(nu).ok()?;
+    let z = standard_normal_quantile(q);
+    let k = 2.0 / (9.0 * nu);
+    let mut x = (nu * (1.0 - k + z * k.sqrt()).powi(3)).max(nu * 1e-3).max(1e-300);
+    for _ in 0..50 {
+        let step = (dist.cdf(x) - q) / dist.pdf(x);
+        if !step.is_finite() {
+            break;
+        }
+        let next = if x - step > 0.0 { x - step } else { x / 2.0 };
+        let done = (next - x).abs() <= 1e-13 * x;
+        x = next;
+        if done {
+            break;
+        }
+    }
+    (x.is_finite() && x > 0.0).then_some(x)
+}
+
+/// The standard normal quantile (Acklam's rational approximation, relative error < 1.2e-9).
+fn standard_normal_quantile(p: f64) -> f64 {
+    use statrs::distribution::Normal;
+    Normal::new(0.0, 1.0).map_or(0.0, |n| n.inverse_cdf(p))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const OADEV: VarianceShape = VarianceShape { d: 2, overlapping: true, modified: false };
+
+    #[test]
+    fn quantiles_match_tables() {
+        // Median of χ²(100) = 99.3341 (Abramowitz & Stegun 26.4); large ν: ν − √(2ν) at z = −1.
+        // ν = 1: χ² = z², so P(χ² ≤ 1) = P(|z| ≤ 1) = erf(1/√2).
+        let q = chi2_quantile(ONE_SIGMA, 1.0).unwrap();
+        assert!((q - 1.0).abs() < 1e-9, "{q}");
+        let q = chi2_quantile(0.5, 100.0).unwrap();
+        assert!((q - 99.334_2).abs() < 1e-3, "{q}");
+        let q = chi2_quantile(0.158_655_254, 500_000.0).unwrap();
+        let approx = 500_000.0 - 1000.0; // ν − √(2ν)·1 to first order
+        assert!((q / approx - 1.0).abs() < 1e-5, "{q}");
+    }
+
+    #[test]
+    fn invalid_inputs_give_none() {
+        assert!(greenhall_edf(-2, VarianceShape { d: 1, ..OADEV }, 1, 100).is_none());
+        assert!(greenhall_edf(-3, OADEV, 1, 100).is_none());
+        assert!(greenhall_edf(0, OADEV, 50, 100).is_none());
+        assert!(chi2_interval(1.0, 0.0, ONE_SIGMA).is_none());
+        assert!(chi2_interval(1.0, 3.0, 1.0).is_none());
+    }
+
+    /// Exact EDF of the overlapping AVAR of discrete white FM: M / Σ_k ρ(k)² with the terms'
+    /// autocorrelation ρ(k) = (2m − 3|k|)/(2m) for |k| ≤ m, −(2m − |k|)/(2m) for m ≤ |k| ≤ 2m.
+    fn exact_white_fm_oadev_edf(n: usize, m: usize) -> f64 {
+        let big_m = (n - 2 * m) as f64;
+        let mf = m as f64;
+        let rho = |k: f64| if k <= mf { (2.0 * mf - 3.0 * k) / (2.0 * mf) } else { -(2.0 * mf - k) / (2.0 * mf) };
+        let s: f64 = (1..2 * m).map(|k| 2.0 * (1.0 - k as f64 / big_m) * rho(k as f64).powi(2)).sum();
+        big_m / (1.0 + s)
+    }
+
+    #[test]
+    fn white_fm_oadev_edf_matches_exact_for_large_m() {
+        // m·(d+1) > J_max: Greenhall's m' = ∞ models the sampled random walk exactly.
+        for m in [40, 100, 1000] {
+            let g = greenhall_edf(0, OADEV, m, 100_001).unwrap();
+            let exact = exact_white_fm_oadev_edf(100_001, m);
+            assert!((g / exact - 1.0).abs() < 1e-3, "m={m}: {g} vs {exact}");
+        }
+    }
+
+    #[test]
+    fn white_fm_oadev_edf_small_m_is_stable32s() {
+        // m·(d+1) ≤ J_max: the algorithm (and Stable32) uses m' = m, a phase averaged over τ0,
+        // which gives a smaller EDF than the sampled random walk: 1368.0 vs ≈ 1479 at m = 10.
+        let g = greenhall_edf(0, OADEV, 10, 10_001).unwrap();
+        assert!((g - 1367.955).abs() < 1e-2, "{g}");
+        assert!((exact_white_fm_oadev_edf(10_001, 10) / 1478.7 - 1.0).abs() < 1e-3);
+    }
+}

@@ -1,0 +1,127 @@
+//! Equivalent degrees of freedom and χ² intervals for the Allan variance of one window.
+//!
+//! The branch that owns the general EDF (Greenhall's algorithm) may replace [`edf_overlapping`];
+//! everything in the engine reaches the EDF through that one function and the χ² quantiles through
+//! [`IntervalCache`], so a swap is one edit here.
+//!
+//! Why a cache: every row of every axis needs an interval at every τ, and a χ² quantile is an
+//! iterative inversion. In a window without invalid samples the EDF depends only on (m, terms), so
+//! the factors are computed once per pair; the number of pairs is bounded by K·λ2.
+
+use crate::allan::AllanPoint;
+use statrs::distribution::{ChiSquared, ContinuousCDF};
+use std::collections::HashMap;
+
+/// Lower tail probability of the 68.3 % (one-sigma) two-sided interval.
+pub const ONE_SIGMA_LOW: f64 = 0.158_655_253_931_457;
+
+/// Equivalent degrees of freedom of the overlapping Allan variance, white-FM closed form.
+///
+/// White frequency noise on a rate signal is the angle / velocity random walk that dominates an IMU
+/// at the short τ where the DAVAR does its work, so its closed form is the documented simple choice
+/// (DESIGN §2 allows closed forms where documented). It underestimates the spread for flicker and
+/// random-walk noise at long τ.
+///
+/// # Formula
+/// ```text
+/// edf = (3(N−1)/(2m) − 2(N−2)/N) · 4m²/(4m² + 5),   N = terms + 2m
+/// ```
+/// where `terms` is the number of squared second differences averaged, N the equivalent number of
+/// phase points and m the averaging factor. The result is clamped to at least 1.
+///
+/// # References
+/// Howe D. A., Allan D. W., Barnes J. A., "Properties of signal sources and measurement methods",
+/// 35th Frequency Control Symposium, 1981; Riley, NIST SP 1065, 2008, §5.3 Table 5.
+///
+/// ```
+/// let e = fdavar::davar::edf_overlapping(1, 499); // a 501-sample window at m = 1
+/// assert!((e - 332.448).abs() < 1e-3);
+/// ```
+pub fn edf_overlapping(m: usize, terms: usize) -> f64 {
+    let m = m.max(1) as f64;
+    let n = terms as f64 + 2.0 * m;
+    let raw = (3.0 * (n - 1.0) / (2.0 * m) - 2.0 * (n - 2.0) / n) * 4.0 * m * m / (4.0 * m * m + 5.0);
+    raw.max(1.0)
+}
+
+/// The χ² factors of a two-sided interval: `(lo, hi)` with `avar·lo ≤ σ² ≤ avar·hi`.
+///
+/// # Formula
+/// ```text
+/// lo = edf / χ²(1 − p_low; edf),   hi = edf / χ²(p_low; edf)
+/// ```
+/// where χ²(p; ν) is the p-quantile of the χ² distribution with ν degrees of freedom.
+pub fn chi2_factors(edf: f64, p_low: f64) -> (f64, f64) {
+    match ChiSquared::new(edf) {
+        Ok(chi) => (
+            edf / chi.inverse_cdf(1.0 - p_low),
+            edf / chi.inverse_cdf(p_low),
+        ),
+        // edf is clamped ≥ 1 by edf_overlapping; an invalid edf gives an unbounded interval.
+        Err(_) => (0.0, f64::INFINITY),
+    }
+}
+
+/// Memoised EDF and χ² factors per (m, terms) for one tail probability.
+#[derive(Debug, Clone)]
+pub struct IntervalCache {
+    p_low: f64,
+    by_key: HashMap<(usize, usize), (f64, f64, f64)>,
+}
+
+impl IntervalCache {
+    /// A cache for the two-sided interval with lower tail `p_low` (e.g. [`ONE_SIGMA_LOW`]).
+    pub fn new(p_low: f64) -> Self {
+        IntervalCache {
+            p_low,
+            by_key: HashMap::new(),
+        }
+    }
+
+    /// `(edf, lo, hi)` for `terms` squared differences at averaging factor `m`.
+    pub fn factors(&mut self, m: usize, terms: usize) -> (f64, f64, f64) {
+        let p_low = self.p_low;
+        *self.by_key.entry((m, terms)).or_insert_with(|| {
+            let edf = edf_overlapping(m, terms);
+            let (lo, hi) = chi2_factors(edf, p_low);
+            (edf, lo, hi)
+        })
+    }
+
+    /// An [`AllanPoint`] with its EDF and interval.
+    pub fn point(&mut self, m: usize, tau: f64, avar: f64, terms: usize) -> AllanPoint {
+        let (edf, lo, hi) = self.factors(m, terms);
+        AllanPoint {
+            m,
+            tau,
+            avar,
+            terms,
+            edf,
+            ci_low: avar * lo,
+            ci_high: avar * hi,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interval_brackets_the_estimate_and_narrows_with_terms() {
+        let mut c = IntervalCache::new(ONE_SIGMA_LOW);
+        let small = c.point(1, 1.0, 2.0, 20);
+        let large = c.point(1, 1.0, 2.0, 2000);
+        assert!(small.ci_low < 2.0 && 2.0 < small.ci_high);
+        assert!(large.ci_high - large.ci_low < small.ci_high - small.ci_low);
+        // For large edf the one-sigma half width tends to √(2/edf) relative.
+        let rel = (large.ci_high - large.ci_low) / 2.0 / 2.0;
+        assert!((rel - (2.0 / large.edf).sqrt()).abs() < 0.01, "{rel}");
+    }
+
+    #[test]
+    fn edf_is_at_least_one() {
+        assert!(edf_overlapping(100, 1) >= 1.0);
+        assert!(edf_overlapping(0, 0) >= 1.0);
+    }
+}

@@ -1,0 +1,109 @@
+//! `bias_step`: a sudden jump of the bias at one time.
+
+use super::{
+    check_params, first_index_at, params_of, Domain, Effect, EffectKind, Evidence, Explanation,
+    KindInfo, Param, ParamError, ParamSpec, SimContext, SimStage,
+};
+use rand::RngCore;
+
+static SCHEMA: &[ParamSpec] = &[
+    ParamSpec {
+        name: "time_s",
+        unit: "s",
+        bounds: (0.0, 1e9),
+        doc: "time of the step, seconds from the first sample",
+    },
+    ParamSpec {
+        name: "size",
+        unit: "rad/s",
+        bounds: (-1e3, 1e3),
+        doc: "size of the step in the mean",
+    },
+];
+
+/// The registry entry of [`BiasStep`].
+pub(super) static KIND: KindInfo = KindInfo {
+    id: "bias_step",
+    alias: None,
+    schema: SCHEMA,
+    domain: Domain::TimeDomain,
+    evidence: Evidence::Events,
+    stage: SimStage::Additive,
+    construct: |v| Ok(Box::new(BiasStep::new(v[0], v[1])?)),
+};
+
+/// A step of `size` in the bias at `time_s`: a shock, a mode switch, a power glitch.
+///
+/// Not stationary, so it has no Allan signature of its own; it is estimated in the time domain from
+/// the DAVAR event that marks it.
+///
+/// # Formula
+/// ```text
+/// y[n] += size   for every n with n·τ0 ≥ time_s
+/// ```
+///
+/// # References
+/// Galleani L., "The dynamic Allan variance", IEEE TUFFC 56(3), 2009 (steps seen by the DAVAR).
+///
+/// ```
+/// use fdavar::model::effects::{BiasStep, Effect, SimContext};
+/// let step = BiasStep::new(0.2, 1.5).unwrap();
+/// let ctx = SimContext { dt: 0.1, white_sigma: 0.0, temperature_c: None, accel: None };
+/// let mut y = [0.0; 4];
+/// step.simulate(&ctx, &mut rand::rngs::mock::StepRng::new(0, 0), &mut y);
+/// assert_eq!(y, [0.0, 0.0, 1.5, 1.5]);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BiasStep {
+    time_s: f64,
+    size: f64,
+}
+
+impl BiasStep {
+    /// Builds the effect from the step time `time_s` (s) and its `size` (rad/s).
+    ///
+    /// # Errors
+    /// [`ParamError`] naming the parameter that is NaN or out of bounds.
+    pub fn new(time_s: f64, size: f64) -> Result<Self, ParamError> {
+        check_params(KIND.id, SCHEMA, &[time_s, size])?;
+        Ok(Self { time_s, size })
+    }
+
+    /// The step time, seconds from the first sample.
+    pub fn time_s(&self) -> f64 {
+        self.time_s
+    }
+
+    /// The step size, rad/s.
+    pub fn size(&self) -> f64 {
+        self.size
+    }
+}
+
+impl Effect for BiasStep {
+    fn kind(&self) -> &'static dyn EffectKind {
+        &KIND
+    }
+    fn params(&self) -> Vec<Param> {
+        params_of(SCHEMA, &[self.time_s, self.size])
+    }
+    fn avar(&self, _tau: f64) -> Option<f64> {
+        None
+    }
+    fn simulate(&self, ctx: &SimContext<'_>, _rng: &mut dyn RngCore, out: &mut [f64]) {
+        let start = first_index_at(self.time_s, ctx.dt, out.len());
+        for y in &mut out[start..] {
+            *y += self.size;
+        }
+    }
+    fn explain(&self) -> Explanation {
+        Explanation {
+            sentence: format!(
+                "the bias jumped by {:.3e} at {:.3} s: a shock, a mode switch or a power glitch",
+                self.size, self.time_s
+            ),
+            avar_slope: None,
+            reference: "Galleani, IEEE TUFFC 56(3), 2009",
+        }
+    }
+}

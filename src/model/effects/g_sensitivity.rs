@@ -1,0 +1,132 @@
+//! `g_sensitivity`: a gyro bias proportional to the specific force on one accel axis.
+
+use super::{
+    check_params, params_of, Domain, Effect, EffectKind, Evidence, Explanation, KindInfo, Param,
+    ParamError, ParamSpec, SimContext, SimStage,
+};
+use crate::signal::Axis;
+use rand::RngCore;
+
+static SCHEMA: &[ParamSpec] = &[
+    ParamSpec {
+        name: "source",
+        unit: "axis",
+        bounds: (0.0, 2.0),
+        doc: "accel axis the gyro responds to: 0 = accel_x, 1 = accel_y, 2 = accel_z",
+    },
+    ParamSpec {
+        name: "coefficient",
+        unit: "(rad/s)/(m/s^2)",
+        bounds: (-1e3, 1e3),
+        doc: "gyro bias per unit of specific force on the source axis",
+    },
+];
+
+/// The registry entry of [`GSensitivity`].
+pub(super) static KIND: KindInfo = KindInfo {
+    id: "g_sensitivity",
+    alias: None,
+    schema: SCHEMA,
+    domain: Domain::TimeDomain,
+    evidence: Evidence::Accel,
+    stage: SimStage::Additive,
+    construct: |v| Ok(Box::new(GSensitivity::new(v[0], v[1])?)),
+};
+
+/// A gyro bias of `coefficient` per m/s² of specific force on the `source` accel axis.
+///
+/// MEMS gyros are vibrating structures, and acceleration deflects them: vibration on one axis leaks
+/// into the rate of another. It is estimated by regressing the gyro axis on the accel axis.
+///
+/// The `source` parameter is an axis carried as a number in [`Effect::params`] and
+/// [`EffectKind::build`] values (0 = `accel_x`, 1 = `accel_y`, 2 = `accel_z`), so that every
+/// parameter stays an `f64`; [`GSensitivity::source`] gives it back as an [`Axis`].
+///
+/// # Formula
+/// ```text
+/// y[n] += c·a_s[n]
+/// ```
+/// where c is `coefficient` ((rad/s)/(m/s²)) and a_s the true specific force on the source axis
+/// (gravity and vibration, without the accelerometer's own noise).
+///
+/// # References
+/// IEEE Std 952-1997, Annex C (g-sensitivity, "acceleration sensitivity"); Analog Devices
+/// AN-1049 (linear acceleration effects on MEMS gyros).
+///
+/// ```
+/// use fdavar::model::effects::{Effect, GSensitivity};
+/// use fdavar::signal::Axis;
+/// let g = GSensitivity::new(2.0, 1e-3).unwrap();
+/// assert_eq!(g.source(), Axis::AccelZ);
+/// assert!(GSensitivity::new(0.5, 1e-3).is_err()); // not a whole axis number
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GSensitivity {
+    source: usize,
+    coefficient: f64,
+}
+
+impl GSensitivity {
+    /// Builds the effect from the `source` accel axis number (0, 1, 2) and the `coefficient`.
+    ///
+    /// # Errors
+    /// [`ParamError`] naming the parameter that is NaN or out of bounds, or
+    /// [`ParamError::Invalid`] when `source` is not a whole number.
+    pub fn new(source: f64, coefficient: f64) -> Result<Self, ParamError> {
+        check_params(KIND.id, SCHEMA, &[source, coefficient])?;
+        if source.fract() != 0.0 {
+            return Err(ParamError::Invalid {
+                effect: KIND.id,
+                reason: format!(
+                    "source = {source} must be 0 (accel_x), 1 (accel_y) or 2 (accel_z)"
+                ),
+            });
+        }
+        Ok(Self {
+            source: source as usize,
+            coefficient,
+        })
+    }
+
+    /// The accel axis the gyro responds to.
+    pub fn source(&self) -> Axis {
+        Axis::ALL[3 + self.source]
+    }
+
+    /// The coefficient, (rad/s)/(m/s²).
+    pub fn coefficient(&self) -> f64 {
+        self.coefficient
+    }
+}
+
+impl Effect for GSensitivity {
+    fn kind(&self) -> &'static dyn EffectKind {
+        &KIND
+    }
+    fn params(&self) -> Vec<Param> {
+        params_of(SCHEMA, &[self.source as f64, self.coefficient])
+    }
+    fn avar(&self, _tau: f64) -> Option<f64> {
+        None
+    }
+    fn simulate(&self, ctx: &SimContext<'_>, _rng: &mut dyn RngCore, out: &mut [f64]) {
+        let Some(accel) = ctx.accel else {
+            return;
+        };
+        for (y, &a) in out.iter_mut().zip(accel[self.source]) {
+            *y += self.coefficient * a;
+        }
+    }
+    fn explain(&self) -> Explanation {
+        Explanation {
+            sentence: format!(
+                "the gyro responds to acceleration on {} at {:.3e} (rad/s) per m/s²: vibration or \
+                 manoeuvres leak into the rate",
+                self.source(),
+                self.coefficient
+            ),
+            avar_slope: None,
+            reference: "IEEE Std 952-1997 Annex C; ADI AN-1049",
+        }
+    }
+}

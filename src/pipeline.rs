@@ -1,0 +1,532 @@
+//! The one path from IMU samples to DAVAR rows, shared by the offline CLI and the live node.
+//!
+//! `ImuSample` → stamp check ([`StampCheck`]: gaps become missing-sample markers, duplicates and
+//! stamps going backwards are dropped and counted) → per-axis NaN/∞ handling (that axis gets a
+//! missing marker, counted) → one [`DavarEngine`] and one [`ChangeDetector`] per axis → rows tagged
+//! with axis, time and stamp, and change events.
+//!
+//! Determinism: the pipeline has no clock and no thread of its own. Its output depends only on the
+//! sequence of samples pushed, so the node (which pushes samples from its subscription) and the
+//! CLI (which pushes them from a file or bag) give the same rows for the same input.
+//!
+//! τ0 comes from the `tau0` parameter or, when that is 0, from the median of the first
+//! [`PERIOD_SETTLE`] positive stamp intervals; samples are held back until then (live, that delays
+//! the first rows by that many samples; they are not lost).
+
+use crate::allan::TauGrid;
+use crate::davar::{
+    record_variance, ChangeDetector, ChangeEvent, DavarEngine, DavarError, DavarRow,
+    DetectorConfig, EngineConfig, FTarget, FixedWindow, ProportionalPolicy, SigmaRef, SignPolicy,
+    WindowPolicy,
+};
+use crate::signal::{nominal_period, Axis, ImuSample, Irregularities, PeriodEstimator, StampCheck, StampClass};
+use serde::{Deserialize, Serialize};
+use std::collections::VecDeque;
+
+/// Stamp intervals used to estimate τ0 when it is not given.
+pub const PERIOD_SETTLE: usize = 100;
+
+/// The window policy, as configured.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum PolicyConfig {
+    /// A fixed window of `length` samples.
+    Fixed {
+        /// W, samples.
+        length: usize,
+    },
+    /// Seed Eq. 3.
+    Sign {
+        /// λ1.
+        min: usize,
+        /// λ2.
+        max: usize,
+        /// ΔW.
+        step: usize,
+    },
+    /// Step growing with |log₂(F/F̃)|.
+    Proportional {
+        /// λ1.
+        min: usize,
+        /// λ2.
+        max: usize,
+        /// ΔW per doubling of F/F̃.
+        step: usize,
+        /// Largest move per row.
+        max_step: usize,
+    },
+}
+
+impl PolicyConfig {
+    /// A fresh policy object.
+    pub fn build(&self) -> Box<dyn WindowPolicy> {
+        match *self {
+            PolicyConfig::Fixed { length } => Box::new(FixedWindow::new(length)),
+            PolicyConfig::Sign { min, max, step } => Box::new(SignPolicy::new(min, max, step)),
+            PolicyConfig::Proportional {
+                min,
+                max,
+                step,
+                max_step,
+            } => Box::new(ProportionalPolicy::new(min, max, step, max_step)),
+        }
+    }
+
+    /// λ2 (the fixed length for `Fixed`).
+    pub fn max_window(&self) -> usize {
+        match *self {
+            PolicyConfig::Fixed { length } => length,
+            PolicyConfig::Sign { max, .. } | PolicyConfig::Proportional { max, .. } => max,
+        }
+    }
+}
+
+/// How σ²_ref is obtained, as configured (`sigma_ref.mode`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum SigmaRefMode {
+    /// Whole-record variance per axis (offline only: the caller makes a first pass, see
+    /// [`record_variances`]).
+    Record,
+    /// Running variance of all samples so far.
+    Running,
+    /// Variance of the first `seconds` of data, then frozen.
+    Baseline {
+        /// Baseline length, seconds.
+        seconds: f64,
+    },
+    /// A given variance.
+    Value(f64),
+}
+
+/// Everything the pipeline needs; built from a parameter file by [`crate::params`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct DavarConfig {
+    /// Window policy.
+    pub policy: PolicyConfig,
+    /// F̃.
+    pub f_target: FTarget,
+    /// σ²_ref.
+    pub sigma_ref: SigmaRefMode,
+    /// τ grid (cut at λ2/3).
+    pub taus: TauGrid,
+    /// Nominal period in seconds, or `None` to estimate it from stamps.
+    pub tau0: Option<f64>,
+    /// Change detection.
+    pub events: DetectorConfig,
+}
+
+/// Errors of the pipeline.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum PipelineError {
+    /// `sigma_ref.mode: record` without the whole-record variances.
+    #[error("sigma_ref.mode 'record' needs the variance of the whole record (offline only); use running, baseline or value live")]
+    RecordVarianceMissing,
+    /// The whole record of an axis has fewer than two finite values or no spread.
+    #[error("axis {axis}: the whole-record variance is undefined (fewer than two finite values, or all equal)")]
+    RecordVarianceUndefined {
+        /// The axis.
+        axis: Axis,
+    },
+    /// The engine rejected the configuration.
+    #[error(transparent)]
+    Engine(#[from] DavarError),
+}
+
+/// One DAVAR row of one axis.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AxisRow {
+    /// The axis.
+    pub axis: Axis,
+    /// Analysis time, seconds from the first sample (from the stamp of the analysis sample).
+    pub time_s: f64,
+    /// Stamp of the analysis sample, ns (interpolated inside a gap).
+    pub stamp_ns: i64,
+    /// The row.
+    pub row: DavarRow,
+}
+
+/// One change event of one axis.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AxisEvent {
+    /// The axis.
+    pub axis: Axis,
+    /// The event.
+    pub event: ChangeEvent,
+}
+
+/// What one push produced.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Output {
+    /// Rows, in order of analysis time per axis, axes interleaved as they completed.
+    pub rows: Vec<AxisRow>,
+    /// Events that closed.
+    pub events: Vec<AxisEvent>,
+}
+
+/// The whole-record variance of each axis ([`SigmaRefMode::Record`]); `None` where undefined.
+pub fn record_variances(samples: &[ImuSample]) -> [Option<f64>; 6] {
+    Axis::ALL.map(|a| {
+        let values: Vec<f64> = samples.iter().map(|s| s.value(a)).collect();
+        record_variance(&values).filter(|v| *v > 0.0)
+    })
+}
+
+struct AxisState {
+    axis: Axis,
+    engine: DavarEngine,
+    detector: ChangeDetector,
+}
+
+/// Stamps of the most recent sample indices (markers included), to tag rows and events.
+struct Stamps {
+    tau0: f64,
+    first_stamp: i64,
+    /// Stamps, index `first` at the front.
+    recent: VecDeque<i64>,
+    first: u64,
+    keep: usize,
+}
+
+impl Stamps {
+    fn stamp_of(&self, index: u64) -> i64 {
+        match index.checked_sub(self.first) {
+            Some(i) if (i as usize) < self.recent.len() => self.recent[i as usize],
+            _ => self.first_stamp + (index as f64 * self.tau0 * 1e9).round() as i64,
+        }
+    }
+
+    fn seconds(&self, index: u64) -> f64 {
+        (self.stamp_of(index) - self.first_stamp) as f64 * 1e-9
+    }
+
+    fn remember(&mut self, stamp: i64) {
+        self.recent.push_back(stamp);
+        if self.recent.len() > self.keep {
+            self.recent.pop_front();
+            self.first += 1;
+        }
+    }
+
+    /// Records `missing` interpolated stamps before `stamp`; only the newest `keep` are kept.
+    fn fill_gap(&mut self, missing: u64, stamp: i64) {
+        let last = self.recent.back().copied().unwrap_or(self.first_stamp);
+        let step = (stamp - last) as f64 / (missing + 1) as f64;
+        let skipped = missing - missing.min(self.keep as u64);
+        if skipped > 0 {
+            self.first += self.recent.len() as u64 + skipped;
+            self.recent.clear();
+        }
+        for i in (skipped + 1)..=missing {
+            self.remember(last + (step * i as f64).round() as i64);
+        }
+    }
+}
+
+struct Running {
+    check: StampCheck,
+    stamps: Stamps,
+    axes: Vec<AxisState>,
+    scratch: Vec<DavarRow>,
+}
+
+impl Running {
+    fn push(&mut self, s: &ImuSample, out: &mut Output) {
+        match self.check.check(s.stamp_ns) {
+            StampClass::Duplicate | StampClass::Backwards => return,
+            StampClass::Gap { missing } => {
+                self.stamps.fill_gap(missing, s.stamp_ns);
+                for k in 0..self.axes.len() {
+                    self.axes[k].engine.push_missing(missing, &mut self.scratch);
+                    self.drain(k, out);
+                }
+            }
+            StampClass::Next => {}
+        }
+        self.stamps.remember(s.stamp_ns);
+        for k in 0..self.axes.len() {
+            let value = s.value(self.axes[k].axis);
+            if !value.is_finite() {
+                self.check.count_non_finite();
+            }
+            self.axes[k].engine.push(Some(value), &mut self.scratch);
+            self.drain(k, out);
+        }
+    }
+
+    fn drain(&mut self, k: usize, out: &mut Output) {
+        let stamps = &self.stamps;
+        let state = &mut self.axes[k];
+        let time_of = |i: u64| stamps.seconds(i);
+        for row in self.scratch.drain(..) {
+            if let Some(event) = state.detector.push(&row, &time_of) {
+                out.events.push(AxisEvent {
+                    axis: state.axis,
+                    event,
+                });
+            }
+            out.rows.push(AxisRow {
+                axis: state.axis,
+                time_s: stamps.seconds(row.index),
+                stamp_ns: stamps.stamp_of(row.index),
+                row,
+            });
+        }
+    }
+}
+
+/// The streaming pipeline of one IMU topic (see the module doc).
+pub struct Pipeline {
+    config: DavarConfig,
+    axes: Vec<Axis>,
+    record: Option<[Option<f64>; 6]>,
+    period: PeriodEstimator,
+    held: Vec<ImuSample>,
+    running: Option<Running>,
+}
+
+impl std::fmt::Debug for Pipeline {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Pipeline")
+            .field("axes", &self.axes)
+            .field("tau0", &self.tau0())
+            .finish_non_exhaustive()
+    }
+}
+
+impl Pipeline {
+    /// A pipeline over `axes` (usually [`Axis::ALL`]).
+    ///
+    /// `record` holds the whole-record variances ([`record_variances`]) and is required exactly when
+    /// `config.sigma_ref` is [`SigmaRefMode::Record`].
+    ///
+    /// # Errors
+    /// [`PipelineError::RecordVarianceMissing`] / [`PipelineError::RecordVarianceUndefined`] for
+    /// record mode without usable variances; [`PipelineError::Engine`] when the engine rejects the
+    /// configuration (checked here, before any sample).
+    pub fn new(
+        config: DavarConfig,
+        axes: &[Axis],
+        record: Option<[Option<f64>; 6]>,
+    ) -> Result<Self, PipelineError> {
+        if config.sigma_ref == SigmaRefMode::Record {
+            let record = record.ok_or(PipelineError::RecordVarianceMissing)?;
+            if let Some(&axis) = axes.iter().find(|a| record[a.index()].is_none()) {
+                return Err(PipelineError::RecordVarianceUndefined { axis });
+            }
+        }
+        let pipeline = Pipeline {
+            config,
+            axes: axes.to_vec(),
+            record,
+            period: PeriodEstimator::new(PERIOD_SETTLE),
+            held: Vec::new(),
+            running: None,
+        };
+        // Validate the engine configuration now, with a placeholder period when none is given.
+        pipeline.engine_for(Axis::GyroX, pipeline.config.tau0.unwrap_or(1.0))?;
+        Ok(pipeline)
+    }
+
+    fn engine_for(&self, axis: Axis, tau0: f64) -> Result<DavarEngine, PipelineError> {
+        let sigma_ref = match self.config.sigma_ref {
+            SigmaRefMode::Record => SigmaRef::Value(
+                self.record
+                    .and_then(|r| r[axis.index()])
+                    .ok_or(PipelineError::RecordVarianceUndefined { axis })?,
+            ),
+            SigmaRefMode::Running => SigmaRef::Running,
+            SigmaRefMode::Baseline { seconds } => SigmaRef::Baseline {
+                samples: ((seconds / tau0).round() as usize).max(2),
+            },
+            SigmaRefMode::Value(v) => SigmaRef::Value(v),
+        };
+        let max = self.config.policy.max_window();
+        let engine = EngineConfig {
+            factors: self.config.taus.factors(max / 3),
+            tau0,
+            sigma_ref,
+            f_target: self.config.f_target,
+        };
+        Ok(DavarEngine::new(engine, self.config.policy.build())?)
+    }
+
+    /// The nominal period in use, once known.
+    pub fn tau0(&self) -> Option<f64> {
+        self.running.as_ref().map(|r| r.stamps.tau0)
+    }
+
+    /// Irregularities counted so far (gaps, duplicates, backwards stamps, non-finite values).
+    pub fn irregularities(&self) -> Irregularities {
+        self.running
+            .as_ref()
+            .map(|r| r.check.counts())
+            .unwrap_or_default()
+    }
+
+    /// Squared differences left out so far because they straddled an invalid sample, per axis.
+    pub fn excluded_terms(&self) -> Vec<(Axis, u64)> {
+        self.running
+            .as_ref()
+            .map(|r| r.axes.iter().map(|a| (a.axis, a.engine.excluded_terms())).collect())
+            .unwrap_or_default()
+    }
+
+    /// Pushes one IMU sample; rows and closed events are appended to `out`.
+    pub fn push(&mut self, sample: &ImuSample, out: &mut Output) {
+        if let Some(r) = &mut self.running {
+            r.push(sample, out);
+            return;
+        }
+        let tau0 = self.config.tau0.or_else(|| self.period.push(sample.stamp_ns));
+        self.held.push(*sample);
+        if let Some(tau0) = tau0 {
+            self.start(tau0, out);
+        }
+    }
+
+    /// Ends the input: flushes held samples (estimating τ0 from them if needed) and closes open
+    /// events (marked `closed: false`).
+    pub fn finish(&mut self, out: &mut Output) {
+        if self.running.is_none() {
+            let stamps: Vec<i64> = self.held.iter().map(|s| s.stamp_ns).collect();
+            match nominal_period(&stamps) {
+                Some(tau0) => self.start(tau0, out),
+                None => return,
+            }
+        }
+        if let Some(r) = &mut self.running {
+            for a in &mut r.axes {
+                if let Some(event) = a.detector.finish() {
+                    out.events.push(AxisEvent { axis: a.axis, event });
+                }
+            }
+        }
+    }
+
+    fn start(&mut self, tau0: f64, out: &mut Output) {
+        let axes: Vec<AxisState> = self
+            .axes
+            .iter()
+            .map(|&axis| AxisState {
+                axis,
+                engine: self
+                    .engine_for(axis, tau0)
+                    .expect("configuration validated in Pipeline::new"),
+                detector: ChangeDetector::new(self.config.events),
+            })
+            .collect();
+        let held = std::mem::take(&mut self.held);
+        let first_stamp = held.first().map(|s| s.stamp_ns).unwrap_or_default();
+        self.running = Some(Running {
+            check: StampCheck::new(tau0),
+            stamps: Stamps {
+                tau0,
+                first_stamp,
+                recent: VecDeque::new(),
+                first: 0,
+                keep: self.config.policy.max_window() + 16,
+            },
+            axes,
+            scratch: Vec::new(),
+        });
+        let r = self.running.as_mut().expect("just set");
+        for s in &held {
+            r.push(s, out);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(k: i64, stamp_ns: i64, v: f64) -> ImuSample {
+        let w = ((k * 7919) % 101) as f64 / 50.0 - 1.0;
+        ImuSample {
+            stamp_ns,
+            gyro: [v + w, w, -w],
+            accel: [w, 2.0 * w, 9.81 + w],
+        }
+    }
+
+    fn config() -> DavarConfig {
+        DavarConfig {
+            policy: PolicyConfig::Fixed { length: 31 },
+            events: DetectorConfig {
+                z: 3.0,
+                warmup_rows: 20,
+                min_rows: 5,
+                merge_rows: 5,
+            },
+            ..DavarConfig::default()
+        }
+    }
+
+    #[test]
+    fn gaps_become_markers_and_duplicates_are_dropped() {
+        let mut p = Pipeline::new(config(), &Axis::ALL, None).unwrap();
+        let mut out = Output::default();
+        let mut k = 0;
+        for i in 0..300i64 {
+            if (150..153).contains(&i) {
+                continue; // three missing samples
+            }
+            p.push(&sample(k, i * 10_000_000, 0.0), &mut out);
+            k += 1;
+            if i == 200 {
+                p.push(&sample(k, i * 10_000_000, 0.0), &mut out); // duplicate
+            }
+        }
+        p.finish(&mut out);
+        assert_eq!(p.tau0(), Some(0.01));
+        let counts = p.irregularities();
+        assert_eq!((counts.gaps, counts.duplicates), (1, 1));
+        let gx: Vec<&AxisRow> = out.rows.iter().filter(|r| r.axis == Axis::GyroX).collect();
+        assert_eq!(gx.len(), 300 - 31 + 1, "indices follow time, gaps included");
+        for r in &gx {
+            assert_eq!(r.stamp_ns, r.row.index as i64 * 10_000_000);
+            assert!((r.time_s - r.row.index as f64 * 0.01).abs() < 1e-12);
+        }
+        assert!(p.excluded_terms().iter().all(|&(_, n)| n > 0));
+    }
+
+    #[test]
+    fn same_input_same_output_whatever_the_chunking() {
+        let samples: Vec<ImuSample> = (0..400).map(|k| sample(k, 1_000 + k * 5_000_000, if (200..260).contains(&k) { 5.0 * ((k % 3) as f64 - 1.0) } else { 0.0 })).collect();
+        let run = |chunk: usize| {
+            let mut p = Pipeline::new(config(), &[Axis::GyroX], None).unwrap();
+            let mut all = Output::default();
+            for c in samples.chunks(chunk) {
+                let mut out = Output::default();
+                for s in c {
+                    p.push(s, &mut out);
+                }
+                all.rows.extend(out.rows);
+                all.events.extend(out.events);
+            }
+            p.finish(&mut all);
+            all
+        };
+        let (a, b) = (run(1), run(77));
+        assert_eq!(a, b);
+        assert!(!a.events.is_empty());
+    }
+
+    #[test]
+    fn record_mode_needs_the_record() {
+        let cfg = DavarConfig {
+            sigma_ref: SigmaRefMode::Record,
+            ..config()
+        };
+        assert_eq!(
+            Pipeline::new(cfg.clone(), &Axis::ALL, None).unwrap_err(),
+            PipelineError::RecordVarianceMissing
+        );
+        let mut vars = [Some(1.0); 6];
+        vars[4] = None;
+        assert!(matches!(
+            Pipeline::new(cfg, &Axis::ALL, Some(vars)),
+            Err(PipelineError::RecordVarianceUndefined { axis: Axis::AccelY })
+        ));
+    }
+}

@@ -256,8 +256,11 @@ pub struct KindInfo {
     /// When the simulator applies it.
     pub stage: SimStage,
     /// Builds the effect from values already checked against `schema`.
-    pub construct: fn(&[f64]) -> Result<Box<dyn Effect>, ParamError>,
+    pub construct: Constructor,
 }
+
+/// Builds a boxed effect from parameter values in schema order.
+pub type Constructor = fn(&[f64]) -> Result<Box<dyn Effect>, ParamError>;
 
 impl EffectKind for KindInfo {
     fn id(&self) -> &'static str {

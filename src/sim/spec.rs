@@ -1,0 +1,367 @@
+//! The simulation spec: what a YAML file asks for, as plain data, and its validation.
+
+use crate::model::effects::{find, Domain, Effect, SimStage};
+use crate::signal::Axis;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+use super::SimError;
+
+/// A simulation spec (the YAML file of `fdavar simulate`): plain data, comparable with `==`.
+///
+/// Every field but `rate_hz`, `duration_s` and `seed` has a default; unknown fields are refused.
+/// `axes` and `vibration` map an axis name to a map of effect name (contract id or alias) to a map
+/// of contract parameter names to values (SI units; `source` of `g_sensitivity` also accepts
+/// `accel_x`, `accel_y`, `accel_z`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimSpec {
+    /// Sample rate, Hz.
+    pub rate_hz: f64,
+    /// Length of the recording, s (samples = round(duration_s·rate_hz)).
+    pub duration_s: f64,
+    /// Seed of every random stream (ChaCha8): the same spec and seed give the same recording.
+    pub seed: u64,
+    /// Stamp of the first sample, ns since the Unix epoch (default 1 700 000 000 s).
+    #[serde(default = "default_start")]
+    pub start_time_ns: i64,
+    /// `header.frame_id` of every message (default `imu_link`).
+    #[serde(default = "default_frame")]
+    pub frame_id: String,
+    /// Topic names.
+    #[serde(default)]
+    pub topics: Topics,
+    /// Add standard gravity (9.80665 m/s²) to the true specific force on `accel_z` (default false).
+    #[serde(default)]
+    pub gravity: bool,
+    /// The sensor's temperature profile; required by any `temperature` effect.
+    #[serde(default)]
+    pub temperature: Option<TemperatureProfile>,
+    /// Motion of the accel axes (true specific force), as spectral effects of the vocabulary, in
+    /// m/s² — e.g. `sinusoid` for a vibrating mount, `gauss_markov` for band-limited random motion.
+    #[serde(default)]
+    pub vibration: BTreeMap<String, EffectMap>,
+    /// Sensor errors per axis: effect name → parameters.
+    #[serde(default)]
+    pub axes: BTreeMap<String, EffectMap>,
+}
+
+/// Effect name (id or alias) → parameter name → value.
+pub type EffectMap = BTreeMap<String, BTreeMap<String, ParamValue>>;
+
+/// A parameter value in a spec: a number, or an axis name for a parameter whose unit is `axis`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum ParamValue {
+    /// A number in SI units.
+    Number(f64),
+    /// An axis name (`accel_x` …).
+    Name(String),
+}
+
+fn default_start() -> i64 {
+    1_700_000_000_000_000_000
+}
+
+fn default_frame() -> String {
+    "imu_link".into()
+}
+
+/// Topic names of the recording.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Topics {
+    /// `sensor_msgs/msg/Imu` topic (default `/imu/data`).
+    pub imu: String,
+    /// `sensor_msgs/msg/Temperature` topic (default `/imu/temperature`), written when the spec has
+    /// a temperature profile.
+    pub temperature: String,
+}
+
+impl Default for Topics {
+    fn default() -> Self {
+        Self {
+            imu: "/imu/data".into(),
+            temperature: "/imu/temperature".into(),
+        }
+    }
+}
+
+/// The sensor temperature over time: a first-order warm-up plus an optional slow cycle.
+///
+/// # Formula
+/// ```text
+/// T(t) = end_c + (start_c − end_c)·e^(−t/time_constant_s) + cycle_amplitude_c·sin(2π t / cycle_period_s)
+/// ```
+/// where t is seconds from the first sample.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TemperatureProfile {
+    /// Temperature at t = 0, °C.
+    pub start_c: f64,
+    /// Temperature the warm-up tends to, °C (default: `start_c`).
+    #[serde(default)]
+    pub end_c: Option<f64>,
+    /// Warm-up time constant, s (default 300).
+    #[serde(default = "default_warmup")]
+    pub time_constant_s: f64,
+    /// Peak amplitude of the slow cycle, K (default 0: none).
+    #[serde(default)]
+    pub cycle_amplitude_c: f64,
+    /// Period of the slow cycle, s (default 3600).
+    #[serde(default = "default_cycle")]
+    pub cycle_period_s: f64,
+    /// Rate of the Temperature topic, Hz (default 1).
+    #[serde(default = "default_temp_rate")]
+    pub rate_hz: f64,
+}
+
+fn default_warmup() -> f64 {
+    300.0
+}
+fn default_cycle() -> f64 {
+    3600.0
+}
+fn default_temp_rate() -> f64 {
+    1.0
+}
+
+impl TemperatureProfile {
+    /// The temperature at `t` seconds from the first sample, °C.
+    pub fn at(&self, t: f64) -> f64 {
+        let end = self.end_c.unwrap_or(self.start_c);
+        end + (self.start_c - end) * (-t / self.time_constant_s).exp()
+            + self.cycle_amplitude_c * (2.0 * std::f64::consts::PI * t / self.cycle_period_s).sin()
+    }
+}
+
+/// One effect of an axis, resolved from the spec.
+#[derive(Debug)]
+pub(super) struct Planned {
+    /// Position of its kind in the registry (part of its random stream id).
+    pub registry_index: usize,
+    pub effect: Box<dyn Effect>,
+}
+
+/// A spec checked and resolved: effects built, sizes computed.
+#[derive(Debug)]
+pub(super) struct Plan {
+    pub samples: usize,
+    pub dt: f64,
+    /// Per axis (Axis::ALL order): the effects, in registry order.
+    pub axes: [Vec<Planned>; 6],
+    /// Per accel axis: the motion effects.
+    pub vibration: [Vec<Planned>; 3],
+}
+
+fn field_error(field: impl Into<String>, reason: impl Into<String>) -> SimError {
+    SimError::Field {
+        field: field.into(),
+        reason: reason.into(),
+    }
+}
+
+fn positive(field: &str, value: f64) -> Result<(), SimError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(field_error(
+            field,
+            format!("must be a positive number, got {value}"),
+        ))
+    }
+}
+
+/// Builds the effects of one axis map, in registry order, naming the failing field.
+fn resolve(section: &str, axis: &str, map: &EffectMap) -> Result<Vec<Planned>, SimError> {
+    let mut planned = Vec::new();
+    for (name, values) in map {
+        let field = format!("{section}.{axis}.{name}");
+        let kind = find(name).ok_or_else(|| {
+            field_error(
+                &field,
+                "unknown effect (see docs/sim.md for the vocabulary and aliases)",
+            )
+        })?;
+        if let Some(extra) = values
+            .keys()
+            .find(|k| !kind.schema().iter().any(|s| s.name == k.as_str()))
+        {
+            return Err(field_error(
+                format!("{field}.{extra}"),
+                format!(
+                    "unknown parameter; {} takes {}",
+                    kind.id(),
+                    kind.schema()
+                        .iter()
+                        .map(|s| s.name)
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            ));
+        }
+        let mut numbers = Vec::new();
+        for spec in kind.schema() {
+            let pfield = format!("{field}.{}", spec.name);
+            let number = match values.get(spec.name) {
+                None => return Err(field_error(pfield, format!("missing ({})", spec.doc))),
+                Some(ParamValue::Number(v)) => *v,
+                Some(ParamValue::Name(s)) if spec.unit == "axis" => match s.parse::<Axis>() {
+                    Ok(a) if !a.is_gyro() => (a.index() - 3) as f64,
+                    _ => return Err(field_error(pfield, format!("'{s}' is not an accel axis"))),
+                },
+                Some(ParamValue::Name(s)) => {
+                    return Err(field_error(pfield, format!("expected a number, got '{s}'")))
+                }
+            };
+            numbers.push(number);
+        }
+        let effect = kind.build(&numbers).map_err(|source| SimError::Param {
+            field: field.clone(),
+            source,
+        })?;
+        let registry_index = crate::model::effects::REGISTRY
+            .iter()
+            .position(|k| k.id() == kind.id())
+            .unwrap_or(0);
+        if planned
+            .iter()
+            .any(|p: &Planned| p.registry_index == registry_index)
+        {
+            return Err(field_error(
+                field,
+                "the same effect is given twice (id and alias)",
+            ));
+        }
+        planned.push(Planned {
+            registry_index,
+            effect,
+        });
+    }
+    planned.sort_by_key(|p| p.registry_index);
+    Ok(planned)
+}
+
+fn axis_of(section: &str, name: &str) -> Result<Axis, SimError> {
+    name.parse::<Axis>()
+        .map_err(|e| field_error(format!("{section}.{name}"), e.to_string()))
+}
+
+impl SimSpec {
+    /// Parses a YAML spec.
+    ///
+    /// # Errors
+    /// [`SimError::Yaml`] with the parser's message (it names the line and the field).
+    pub fn from_yaml(text: &str) -> Result<SimSpec, SimError> {
+        serde_yaml_ng::from_str(text).map_err(|e| SimError::Yaml(e.to_string()))
+    }
+
+    /// Number of IMU samples: round(duration_s·rate_hz).
+    pub fn samples(&self) -> usize {
+        (self.duration_s * self.rate_hz).round() as usize
+    }
+
+    /// Checks every field and builds the effects.
+    pub(super) fn plan(&self) -> Result<Plan, SimError> {
+        positive("rate_hz", self.rate_hz)?;
+        positive("duration_s", self.duration_s)?;
+        let samples = self.samples();
+        if !(2..=1_000_000_000).contains(&samples) {
+            return Err(field_error(
+                "duration_s",
+                format!("gives {samples} samples at rate_hz; need 2 to 10⁹"),
+            ));
+        }
+        if self.start_time_ns <= 0 {
+            return Err(field_error(
+                "start_time_ns",
+                "must be positive (a zero stamp means 'no stamp' to readers)",
+            ));
+        }
+        if self.frame_id.is_empty() {
+            return Err(field_error("frame_id", "must not be empty"));
+        }
+        for (field, topic) in [
+            ("topics.imu", &self.topics.imu),
+            ("topics.temperature", &self.topics.temperature),
+        ] {
+            if !topic.starts_with('/') || topic.len() < 2 {
+                return Err(field_error(
+                    field,
+                    format!("'{topic}' must be an absolute topic name"),
+                ));
+            }
+        }
+        if let Some(t) = &self.temperature {
+            for (field, v) in [
+                ("temperature.start_c", t.start_c),
+                ("temperature.end_c", t.end_c.unwrap_or(t.start_c)),
+                ("temperature.cycle_amplitude_c", t.cycle_amplitude_c),
+            ] {
+                if !v.is_finite() {
+                    return Err(field_error(
+                        field,
+                        format!("must be a finite number, got {v}"),
+                    ));
+                }
+            }
+            positive("temperature.time_constant_s", t.time_constant_s)?;
+            positive("temperature.cycle_period_s", t.cycle_period_s)?;
+            positive("temperature.rate_hz", t.rate_hz)?;
+        }
+        let mut axes: [Vec<Planned>; 6] = Default::default();
+        for (name, map) in &self.axes {
+            let axis = axis_of("axes", name)?;
+            let planned = resolve("axes", name, map)?;
+            for p in &planned {
+                let id = p.effect.kind().id();
+                let field = format!("axes.{name}.{id}");
+                let evidence = p.effect.kind().evidence();
+                use crate::model::effects::Evidence;
+                if evidence == Evidence::Temperature && self.temperature.is_none() {
+                    return Err(field_error(
+                        field,
+                        "needs a `temperature:` profile in the spec",
+                    ));
+                }
+                if evidence == Evidence::Accel && !axis.is_gyro() {
+                    return Err(field_error(field, "applies to gyro axes only"));
+                }
+                if id == "noise_burst" && !planned.iter().any(|q| q.effect.kind().id() == "white") {
+                    return Err(field_error(
+                        field,
+                        "scales the white noise: add `white` to this axis",
+                    ));
+                }
+            }
+            axes[axis.index()] = planned;
+        }
+        let mut vibration: [Vec<Planned>; 3] = Default::default();
+        for (name, map) in &self.vibration {
+            let axis = axis_of("vibration", name)?;
+            if axis.is_gyro() {
+                return Err(field_error(
+                    format!("vibration.{name}"),
+                    "vibration is given on accel axes",
+                ));
+            }
+            let planned = resolve("vibration", name, map)?;
+            if let Some(p) = planned.iter().find(|p| {
+                p.effect.kind().domain() != Domain::Spectral
+                    || p.effect.kind().sim_stage() != SimStage::Additive
+            }) {
+                return Err(field_error(
+                    format!("vibration.{name}.{}", p.effect.kind().id()),
+                    "motion takes additive spectral effects only (sinusoid, gauss_markov, white, …)",
+                ));
+            }
+            vibration[axis.index() - 3] = planned;
+        }
+        Ok(Plan {
+            samples,
+            dt: 1.0 / self.rate_hz,
+            axes,
+            vibration,
+        })
+    }
+}

@@ -122,7 +122,7 @@ fn sinusoid() {
 
 #[test]
 fn gauss_markov() {
-    run(&case("gauss_markov", Axis::GyroY, 21, 100.0, 20.0, &[3e-4, 3.0], &[AMP, TC]));
+    run(&case("gauss_markov", Axis::GyroY, 21, 100.0, 30.0, &[3e-4, 3.0], &[AMP, TC]));
     run(&case("gauss_markov", Axis::GyroZ, 22, 200.0, 30.0, &[3e-4, 8.0], &[AMP, TC]));
     run(&case("gauss_markov", Axis::AccelX, 23, 100.0, 20.0, &[4e-3, 2.0], &[AMP, TC]));
 }

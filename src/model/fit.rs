@@ -21,7 +21,8 @@
 
 use crate::allan::{AllanPoint, TauGrid};
 use crate::model::effects::{Domain, Effect, EffectKind, ParamError};
-use crate::model::measure::{chi2_interval, edf_for_mix, oavar_rate, NoiseClass};
+use crate::allan::oavar_rate;
+use crate::model::measure::{chi2_interval, edf_for_mix, NoiseClass};
 use crate::model::nnls::{nnls, NnlsError};
 use crate::model::spec::{ModelSpec, SpecError};
 use crate::model::timedomain;
@@ -638,7 +639,6 @@ impl<'a> Problem<'a> {
                     .collect();
                 let cost = log_cost(&meas, &m, &edf);
                 if cost <= best_cost || best_cost.is_infinite() {
-                    best_cost = cost;
                     break;
                 }
                 trial = trial.iter().zip(&c).map(|(t, o)| 0.5 * (t + o)).collect();

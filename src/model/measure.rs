@@ -1,5 +1,4 @@
-//! The measured side of the fit: whole-record overlapping Allan variance of a rate series, and
-//! the EDF of an overlapping estimate for each power-law noise class.
+//! The EDF of an overlapping Allan variance estimate for each power-law noise class, and of a mix.
 //!
 //! The fit needs the EDF *of the noise that is actually there*: an estimate at long τ dominated by
 //! rate random walk has far fewer degrees of freedom than a white-noise formula claims, and a fit
@@ -12,7 +11,6 @@
 //! Riley W. J., "Handbook of Frequency Stability Analysis", NIST SP 1065, 2008, §5.2.4 and
 //! Table 12 (EDF approximations for overlapping ADEV).
 
-use crate::allan::AllanPoint;
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 
 /// The power-law noise classes of NIST SP 1065, by the log-log slope of σ²(τ).
@@ -51,7 +49,7 @@ impl NoiseClass {
 /// ```text
 /// white PM   : edf = (n+1)(n−2m) / (2(n−m))
 /// white FM   : edf = [3(n−1)/(2m) − 2(n−2)/n] · 4m² / (4m² + 5)
-/// flicker FM : edf = 2(n−2)/(2.3n − 4.9)            (m = 1)
+/// flicker FM : edf = 2(n−2)²/(2.3n − 4.9)           (m = 1)
 ///              edf = 5n² / (4m(n + 3m))              (m ≥ 2)
 /// RW FM      : edf = (n−2)/m · ((n−1)² − 3m(n−1) + 4m²) / (n−3)²
 /// ```
@@ -73,7 +71,7 @@ pub fn edf_oavar(class: NoiseClass, n: usize, m: usize) -> f64 {
             (3.0 * (nf - 1.0) / (2.0 * mf) - 2.0 * (nf - 2.0) / nf) * 4.0 * mf * mf
                 / (4.0 * mf * mf + 5.0)
         }
-        NoiseClass::FlickerFm if m <= 1 => 2.0 * (nf - 2.0) / (2.3 * nf - 4.9),
+        NoiseClass::FlickerFm if m <= 1 => 2.0 * (nf - 2.0).powi(2) / (2.3 * nf - 4.9),
         NoiseClass::FlickerFm => 5.0 * nf * nf / (4.0 * mf * (nf + 3.0 * mf)),
         NoiseClass::RandomWalkFm => {
             (nf - 2.0) / mf * ((nf - 1.0).powi(2) - 3.0 * mf * (nf - 1.0) + 4.0 * mf * mf)
@@ -119,93 +117,9 @@ pub fn chi2_interval(avar: f64, edf: f64) -> (f64, f64) {
     }
 }
 
-/// Whole-record overlapping Allan variance of rate samples at the given averaging factors.
-///
-/// Terms that would straddle a NaN/Inf sample are left out (DESIGN §1), so the number of terms
-/// can be smaller than L − 2m; a factor with no valid term is skipped. The EDF is the white-rate
-/// value (the fit recomputes it from its model).
-///
-/// # Formula
-/// ```text
-/// x[0] = 0,  x[i+1] = x[i] + τ0·y[i]
-/// σ²(τ) = Σ (x[i+2m] − 2x[i+m] + x[i])² / (2τ²·terms),   τ = m·τ0
-/// ```
-///
-/// ```
-/// let y: Vec<f64> = (0..1000).map(|i| if i % 2 == 0 { 1.0 } else { -1.0 }).collect();
-/// let p = fdavar::model::measure::oavar_rate(&y, 0.1, &[1, 2]);
-/// assert!((p[0].avar - 2.0).abs() < 1e-12 && p[1].avar.abs() < 1e-12);
-/// ```
-pub fn oavar_rate(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<AllanPoint> {
-    let n = rate.len();
-    let mut x = Vec::with_capacity(n + 1);
-    let mut bad = Vec::with_capacity(n + 1);
-    let (mut acc, mut nbad) = (0.0, 0usize);
-    x.push(acc);
-    bad.push(nbad);
-    for &y in rate {
-        if y.is_finite() {
-            acc += tau0 * y;
-        } else {
-            nbad += 1;
-        }
-        x.push(acc);
-        bad.push(nbad);
-    }
-    let clean = nbad == 0;
-    factors
-        .iter()
-        .filter(|&&m| m >= 1 && n + 1 > 2 * m)
-        .filter_map(|&m| {
-            let (mut sum, mut terms) = (0.0, 0usize);
-            for i in 0..n + 1 - 2 * m {
-                if clean || bad[i + 2 * m] == bad[i] {
-                    let d = x[i + 2 * m] - 2.0 * x[i + m] + x[i];
-                    sum += d * d;
-                    terms += 1;
-                }
-            }
-            if terms == 0 {
-                return None;
-            }
-            let tau = m as f64 * tau0;
-            let avar = sum / (2.0 * tau * tau * terms as f64);
-            let edf = edf_oavar(NoiseClass::WhiteFm, terms + 2 * m, m);
-            let (ci_low, ci_high) = chi2_interval(avar, edf);
-            Some(AllanPoint { m, tau, avar, terms, edf, ci_low, ci_high })
-        })
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::allan::naive;
-    use rand::{Rng, SeedableRng};
-    use rand_chacha::ChaCha8Rng;
-
-    #[test]
-    fn matches_the_naive_oracle() {
-        let mut rng = ChaCha8Rng::seed_from_u64(3);
-        let y: Vec<f64> = (0..3000).map(|_| rng.random_range(-1.0..1.0)).collect();
-        let x = naive::phase_from_rate(&y, 0.01);
-        for p in oavar_rate(&y, 0.01, &[1, 2, 5, 17, 100, 999]) {
-            let want = naive::oavar(&x, 0.01, p.m).unwrap();
-            assert!((p.avar - want).abs() <= 1e-10 * want, "m={}", p.m);
-            assert!(p.ci_low < p.avar && p.avar < p.ci_high);
-        }
-    }
-
-    #[test]
-    fn nan_terms_are_left_out() {
-        let mut rng = ChaCha8Rng::seed_from_u64(4);
-        let mut y: Vec<f64> = (0..2000).map(|_| rng.random_range(-1.0..1.0)).collect();
-        y[1000] = f64::NAN;
-        let p = oavar_rate(&y, 1.0, &[1, 10]);
-        assert_eq!(p[0].terms, 2000 - 2 + 1 - 2);
-        assert_eq!(p[1].terms, 2001 - 20 - 20);
-        assert!(p.iter().all(|p| p.avar.is_finite()));
-    }
 
     #[test]
     fn edf_formulas_behave() {

@@ -4,19 +4,21 @@
 //! [`fit::fit`] estimates its time-domain effects on the rate ([`timedomain`]), removes them,
 //! measures the whole-record Allan variance ([`measure`]) and fits the stationary effects by
 //! weighted non-negative least squares ([`nnls`]); [`diagnose::diagnose`] refits with each effect
-//! the model lacks and keeps the gains that pay for their parameters. [`units`] turns the result
-//! into the seed's display units and Kalibr's terms.
+//! the model lacks and keeps the gains that pay for their parameters.
+//! [`record`] lays bag samples out for the fitter; [`output`] is the JSON of DESIGN §7 and the
+//! figures' data.
 
 pub mod diagnose;
 pub mod effects;
 pub mod fit;
 pub mod measure;
 pub mod nnls;
+pub mod output;
+pub mod record;
 pub mod spec;
 #[doc(hidden)]
 pub mod testkit;
 pub mod timedomain;
-pub mod units;
 
 pub use diagnose::{diagnose, Diagnosis, Suggestion};
 pub use fit::{fit, fit_curve, AxisInput, FitError, FitOptions, FittedModel, Span};

@@ -182,7 +182,7 @@ pub fn regress(y: &[f64], x: &[f64]) -> (f64, f64, f64) {
     (c, se, strength)
 }
 
-/// Least-squares slope between the first differences of coarse block means (record/40 per
+/// Least-squares slope between the first differences of coarse block means (record/20 per
 /// block), its standard error corrected for the lag-1 autocorrelation ρ ≥ 0 of the residuals,
 /// and the squared t statistic: the significance of a slow driver such as temperature.
 ///
@@ -198,7 +198,7 @@ pub fn regress(y: &[f64], x: &[f64]) -> (f64, f64, f64) {
 /// se_eff = se·√((1+ρ)/(1−ρ)),   strength = (c/se_eff)²
 /// ```
 pub fn regress_slow(y: &[f64], x: &[f64]) -> (f64, f64, f64) {
-    let block = (y.len() / 40).max(1);
+    let block = (y.len() / 20).max(1);
     let ym: Vec<f64> = y.chunks(block).map(finite_mean).collect();
     let xm: Vec<f64> = x.chunks(block).map(finite_mean).collect();
     let dy: Vec<f64> = ym.windows(2).map(|w| w[1] - w[0]).collect();

@@ -1,1 +1,130 @@
-//! Rendering: text tables, JSON, CSV and figures. No maths here.
+//! Rendering: figures (PNG + SVG), text tables, CSV, and display units. No maths here.
+//!
+//! Everything in this module takes *plain data* — vectors of (τ, σ) pairs, times, window lengths —
+//! defined here, not the fitter's or the DAVAR engine's types. The CLIs and the node convert their
+//! results into these structs; the renderers never reach back into the estimators. That keeps the
+//! dependency arrow one way (`model`, `davar` → `report`) and lets a figure be made from a JSON dump
+//! of a run (every figure struct is `serde`-serialisable).
+//!
+//! - [`figure`]: the Allan deviation with its confidence band, model, terms and z residuals
+//!   ([`figure::AllanFigure`], before/after [`figure::AllanComparison`]), the DAVAR surface heatmap
+//!   ([`figure::DavarSurface`]) and the F value / window length trace ([`figure::WindowTrace`],
+//!   the seed's Figs. 3–4). Each writer produces `<stem>.png` and `<stem>.svg`.
+//! - [`units`]: SI coefficients to the seed's display units (Q µrad, N °/√h, B °/h, K °/h^1.5,
+//!   R °/h²) and to Kalibr's IMU noise terms.
+//! - [`table`]: aligned text tables and RFC 4180 CSV from the same rows; numbers formatted to
+//!   significant digits.
+//!
+//! Fonts: text is rasterised with `ab_glyph` from the DejaVu Sans file bundled in
+//! `assets/fonts/` (licence beside it), so figures look the same on every machine and need no
+//! system font library (fontconfig/freetype). The rejected alternative, plotters' default `ttf`
+//! feature, looks fonts up on the system and fails on a bare CI image.
+use std::path::PathBuf;
+
+pub mod figure;
+pub mod table;
+pub mod units;
+
+/// Why a report could not be rendered.
+///
+/// Input problems name the figure, the field and the index of the offending value, so the caller
+/// can tell which of its own numbers is wrong; drawing and file problems name the path.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ReportError {
+    /// A field the figure needs has no entries.
+    #[error("{figure}: `{field}` is empty, nothing to draw")]
+    Empty {
+        /// Which figure (e.g. "allan", "davar surface").
+        figure: &'static str,
+        /// Which field of the input.
+        field: String,
+    },
+    /// A value is NaN or infinite where a number is required.
+    #[error("{figure}: `{field}[{index}]` = {value} is not a finite number")]
+    NotFinite {
+        /// Which figure.
+        figure: &'static str,
+        /// Which field of the input.
+        field: String,
+        /// Position of the value in that field.
+        index: usize,
+        /// The value found.
+        value: f64,
+    },
+    /// A value that goes on a logarithmic axis is zero or negative.
+    #[error("{figure}: `{field}[{index}]` = {value} must be > 0 (it goes on a logarithmic axis)")]
+    NotPositive {
+        /// Which figure.
+        figure: &'static str,
+        /// Which field of the input.
+        field: String,
+        /// Position of the value in that field.
+        index: usize,
+        /// The value found.
+        value: f64,
+    },
+    /// Two fields that must run in step have different lengths.
+    #[error("{figure}: `{field}` has {got} entries, expected {expected} (one per `{per}`)")]
+    LengthMismatch {
+        /// Which figure.
+        figure: &'static str,
+        /// The field with the wrong length.
+        field: String,
+        /// The field whose length it must match.
+        per: &'static str,
+        /// The length it must have.
+        expected: usize,
+        /// The length it has.
+        got: usize,
+    },
+    /// An interval or band has its ends the wrong way round (low > high).
+    #[error("{figure}: `{field}[{index}]` is reversed: {low} > {high}")]
+    Reversed {
+        /// Which figure.
+        figure: &'static str,
+        /// Which field of the input.
+        field: String,
+        /// Position of the interval.
+        index: usize,
+        /// Its lower end.
+        low: f64,
+        /// Its upper end.
+        high: f64,
+    },
+    /// A sequence that must increase strictly (times, τ) does not.
+    #[error(
+        "{figure}: `{field}` must increase strictly, but entry {index} is {value} after {previous}"
+    )]
+    NotIncreasing {
+        /// Which figure.
+        figure: &'static str,
+        /// Which field of the input.
+        field: String,
+        /// Position of the offending value.
+        index: usize,
+        /// The value before it.
+        previous: f64,
+        /// The value found.
+        value: f64,
+    },
+    /// The output directory could not be created.
+    #[error("cannot create directory {path}: {source}")]
+    CreateDir {
+        /// The directory.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The plotting backend failed (usually an unwritable file).
+    #[error("cannot draw {path}: {message}")]
+    Draw {
+        /// The file being written.
+        path: PathBuf,
+        /// The backend's message.
+        message: String,
+    },
+    /// The bundled font file could not be parsed (a corrupted checkout).
+    #[error("the bundled font assets/fonts/DejaVuSans.ttf could not be loaded; re-check out the repository")]
+    Font,
+}

@@ -1,0 +1,623 @@
+//! The Allan deviation figure: measured σ(τ) with its confidence band, the fitted model and each of
+//! its terms, and a residual panel of z with the failing τ ranges shaded.
+use serde::{Deserialize, Serialize};
+
+use super::*;
+
+const FIGURE: &str = "allan";
+
+/// One measured Allan deviation with its confidence interval.
+///
+/// Plain data so that the figure does not depend on the estimator's types.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct MeasuredPoint {
+    /// Averaging time τ \[s\].
+    pub tau: f64,
+    /// Allan deviation σ(τ), in the axis unit (rad/s or m/s²).
+    pub dev: f64,
+    /// Lower end of the confidence interval of σ (same unit).
+    pub dev_low: f64,
+    /// Upper end of the confidence interval of σ (same unit).
+    pub dev_high: f64,
+}
+
+/// One term of a noise model (e.g. `white`) as a deviation curve σ_term(τ).
+///
+/// A point whose σ is exactly 0 (a term the fit set to zero) is not drawn: it has no place on a
+/// log axis. The legend then marks the term "(zero)".
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Term {
+    /// The effect name or alias shown in the legend (e.g. `white`, `N`).
+    pub name: String,
+    /// (τ \[s\], σ_term(τ)) pairs, τ increasing.
+    pub curve: Vec<(f64, f64)>,
+}
+
+/// A fitted model as the figures see it: its curves, residuals and error.
+///
+/// `z` and `failing_tau` follow the contracts of DESIGN.md §5: z = (σ²_meas − σ²_model) /
+/// (σ²_model·√(2/EDF)) per τ, failing τ = the maximal τ intervals where |z| > 3.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelCurves {
+    /// What the model is, for titles and legends (e.g. `N + B + K`).
+    pub label: String,
+    /// (τ \[s\], σ_model(τ)): the total model deviation, τ increasing.
+    pub total: Vec<(f64, f64)>,
+    /// Each term's own curve.
+    pub terms: Vec<Term>,
+    /// (τ \[s\], z) residuals on the measured τ grid.
+    pub z: Vec<(f64, f64)>,
+    /// Maximal τ intervals \[lo, hi\] (seconds) where |z| > 3.
+    pub failing_tau: Vec<(f64, f64)>,
+    /// RMS of z over the τ grid (≈ 1 when the model explains the measurement).
+    pub fit_error: f64,
+}
+
+/// The Allan deviation figure of one axis and one model.
+///
+/// Top panel: measured σ(τ) (points, confidence band), the model total (black) and each term
+/// (dashed), failing τ shaded. Bottom panel: z(τ) with the |z| = 3 guide lines and the same
+/// shading. Write it with [`write_allan`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AllanFigure {
+    /// Axis name (`gyro_x` … `accel_z`).
+    pub axis: String,
+    /// Unit of σ (e.g. `rad/s`, `m/s²`), shown in the axis title.
+    pub unit: String,
+    /// Figure title (e.g. the recording's name); the axis and fit error are added to it.
+    pub title: String,
+    /// Measured deviations with confidence intervals, τ increasing.
+    pub measured: Vec<MeasuredPoint>,
+    /// The fitted model.
+    pub model: ModelCurves,
+}
+
+/// Before/after figure for a suggested effect: the same measurement against two models, side by
+/// side on identical axes, each column with its fit error.
+///
+/// Use it to show what adding a diagnosed effect changes: the shaded failing τ ranges should
+/// shrink and the fit error fall from left to right. Write it with [`write_allan_comparison`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AllanComparison {
+    /// Axis name (`gyro_x` … `accel_z`).
+    pub axis: String,
+    /// Unit of σ (e.g. `rad/s`), shown in the axis title.
+    pub unit: String,
+    /// Figure title; the axis is added to it.
+    pub title: String,
+    /// Measured deviations with confidence intervals, τ increasing.
+    pub measured: Vec<MeasuredPoint>,
+    /// The model before the suggestion.
+    pub before: ModelCurves,
+    /// The model with the suggested effect added.
+    pub after: ModelCurves,
+}
+
+/// Writes the Allan figure to `<stem>.png` and `<stem>.svg` and returns both paths.
+///
+/// The parent directory is created if needed.
+///
+/// # Errors
+/// [`ReportError`] naming the field and index when an input is empty, NaN/infinite, not positive
+/// where it goes on a log axis (τ, measured σ and its band), or an interval is reversed;
+/// [`ReportError::Draw`] when a file cannot be written.
+pub fn write_allan(figure: &AllanFigure, stem: &Path) -> Result<Vec<PathBuf>, ReportError> {
+    let panels = Panels::new(
+        &figure.axis,
+        &figure.unit,
+        &figure.title,
+        &figure.measured,
+        vec![(String::new(), &figure.model)],
+    )?;
+    write_figure(&panels, stem)
+}
+
+/// Writes the before/after figure to `<stem>.png` and `<stem>.svg` and returns both paths.
+///
+/// # Errors
+/// As [`write_allan`], for the measurement and both models.
+pub fn write_allan_comparison(
+    figure: &AllanComparison,
+    stem: &Path,
+) -> Result<Vec<PathBuf>, ReportError> {
+    let panels = Panels::new(
+        &figure.axis,
+        &figure.unit,
+        &figure.title,
+        &figure.measured,
+        vec![
+            ("before".to_string(), &figure.before),
+            ("after".to_string(), &figure.after),
+        ],
+    )?;
+    write_figure(&panels, stem)
+}
+
+/// Checks one model's curves; `which` prefixes field names (`before.`, `after.` or empty).
+fn validate_model(which: &str, m: &ModelCurves) -> Result<(), ReportError> {
+    let f = |name: &str| format!("{which}{name}");
+    check_non_empty(FIGURE, &f("total"), m.total.len())?;
+    check_positive(FIGURE, &f("total.tau"), m.total.iter().map(|p| p.0))?;
+    let non_negative = |field: &str, values: &[(f64, f64)]| {
+        check_values(
+            FIGURE,
+            field,
+            values.iter().map(|p| p.1),
+            Need::NonNegative,
+            false,
+        )
+    };
+    non_negative(&f("total.dev"), &m.total)?;
+    for (i, term) in m.terms.iter().enumerate() {
+        check_positive(
+            FIGURE,
+            &f(&format!("terms[{i}].tau")),
+            term.curve.iter().map(|p| p.0),
+        )?;
+        non_negative(&f(&format!("terms[{i}].dev")), &term.curve)?;
+    }
+    check_non_empty(FIGURE, &f("z"), m.z.len())?;
+    check_positive(FIGURE, &f("z.tau"), m.z.iter().map(|p| p.0))?;
+    check_finite(FIGURE, &f("z.z"), m.z.iter().map(|p| p.1))?;
+    check_intervals(FIGURE, &f("failing_tau"), &m.failing_tau, true)?;
+    check_finite(FIGURE, &f("fit_error"), [m.fit_error])
+}
+
+/// A validated Allan figure with one column per model and shared axis ranges.
+struct Panels<'a> {
+    axis: &'a str,
+    unit: &'a str,
+    title: &'a str,
+    measured: &'a [MeasuredPoint],
+    /// (column heading, model).
+    models: Vec<(String, &'a ModelCurves)>,
+    /// Term names in first-appearance order; a term keeps its colour across columns.
+    term_names: Vec<String>,
+    tau_range: std::ops::Range<f64>,
+    dev_range: std::ops::Range<f64>,
+    /// Half height of the z panel.
+    z_bound: f64,
+}
+
+impl<'a> Panels<'a> {
+    fn new(
+        axis: &'a str,
+        unit: &'a str,
+        title: &'a str,
+        measured: &'a [MeasuredPoint],
+        models: Vec<(String, &'a ModelCurves)>,
+    ) -> Result<Self, ReportError> {
+        check_non_empty(FIGURE, "measured", measured.len())?;
+        check_positive(FIGURE, "measured.tau", measured.iter().map(|p| p.tau))?;
+        check_positive(FIGURE, "measured.dev", measured.iter().map(|p| p.dev))?;
+        let bands: Vec<(f64, f64)> = measured.iter().map(|p| (p.dev_low, p.dev_high)).collect();
+        check_intervals(FIGURE, "measured.dev_low/dev_high", &bands, true)?;
+        for (heading, m) in &models {
+            let prefix = if heading.is_empty() {
+                "model.".to_string()
+            } else {
+                format!("{heading}.")
+            };
+            validate_model(&prefix, m)?;
+        }
+
+        let mut term_names: Vec<String> = Vec::new();
+        for (_, m) in &models {
+            for t in &m.terms {
+                if !term_names.contains(&t.name) {
+                    term_names.push(t.name.clone());
+                }
+            }
+        }
+        // Validated above: every range below has at least one positive finite value.
+        let all_tau = measured.iter().map(|p| p.tau).chain(
+            models
+                .iter()
+                .flat_map(|(_, m)| m.total.iter().chain(&m.z).map(|p| p.0)),
+        );
+        let (tau_lo, tau_hi) = min_max(all_tau).unwrap_or((1.0, 10.0));
+        // σ range from what must be seen: the measurement, its band and the model totals. Terms
+        // that fall far below (e.g. quantization at long τ) run off the bottom of the plot.
+        let all_dev = measured.iter().flat_map(|p| [p.dev_low, p.dev_high]).chain(
+            models
+                .iter()
+                .flat_map(|(_, m)| m.total.iter().map(|p| p.1).filter(|&d| d > 0.0)),
+        );
+        let (dev_lo, dev_hi) = min_max(all_dev).unwrap_or((1.0, 10.0));
+        let z_max = min_max(
+            models
+                .iter()
+                .flat_map(|(_, m)| m.z.iter().map(|p| p.1.abs())),
+        )
+        .map_or(0.0, |(_, hi)| hi);
+        Ok(Panels {
+            axis,
+            unit,
+            title,
+            measured,
+            models,
+            term_names,
+            tau_range: decade_range(tau_lo, tau_hi),
+            dev_range: decade_range(dev_lo, dev_hi),
+            z_bound: (z_max * 1.1).max(4.0),
+        })
+    }
+
+    fn term_colour(&self, name: &str) -> RGBColor {
+        let i = self.term_names.iter().position(|n| n == name).unwrap_or(0);
+        TERM_COLOURS[i % TERM_COLOURS.len()]
+    }
+
+    /// τ of the measured grid, for padding shaded spans by half a grid step.
+    fn grid(&self) -> Vec<f64> {
+        self.measured.iter().map(|p| p.tau).collect()
+    }
+
+    /// Draws one column: σ(τ) panel over z(τ) panel for `model`.
+    fn draw_column<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+        heading: &str,
+        model: &ModelCurves,
+    ) -> Drawn {
+        let caption = if heading.is_empty() {
+            format!("model {} — fit error {:.2}", model.label, model.fit_error)
+        } else {
+            format!(
+                "{heading}: {} — fit error {:.2}",
+                model.label, model.fit_error
+            )
+        };
+        let (h, _) = area.dim_in_pixel();
+        let (top, bottom) = area.split_vertically(h * 66 / 100);
+        let spans: Vec<(f64, f64)> = model
+            .failing_tau
+            .iter()
+            .map(|&(lo, hi)| pad_span(lo, hi, &self.grid()))
+            .collect();
+
+        // --- σ(τ) panel
+        let mut chart = ChartBuilder::on(&top)
+            .caption(caption, text(19))
+            .margin(8)
+            .x_label_area_size(30)
+            .y_label_area_size(70)
+            .build_cartesian_2d(
+                self.tau_range.clone().log_scale(),
+                self.dev_range.clone().log_scale(),
+            )?;
+        mesh_look(&mut chart.configure_mesh())
+            .x_desc("τ [s]")
+            .y_desc(format!("Allan deviation σ(τ) [{}]", self.unit))
+            .x_labels(40)
+            .y_labels(40)
+            .x_label_formatter(&decade_label)
+            .y_label_formatter(&decade_label)
+            .draw()?;
+        let (y0, y1) = (self.dev_range.start, self.dev_range.end);
+        chart.draw_series(
+            spans
+                .iter()
+                .map(|&(lo, hi)| Rectangle::new([(lo, y0), (hi, y1)], SHADE.filled())),
+        )?;
+        // Confidence band as one polygon: upper edge left→right, lower edge right→left.
+        let band: Vec<(f64, f64)> = self
+            .measured
+            .iter()
+            .map(|p| (p.tau, p.dev_high))
+            .chain(self.measured.iter().rev().map(|p| (p.tau, p.dev_low)))
+            .collect();
+        chart.draw_series(std::iter::once(Polygon::new(band, BAND.filled())))?;
+        for term in &model.terms {
+            let colour = self.term_colour(&term.name);
+            for segment in clipped_runs(&term.curve, self.dev_range.start, self.dev_range.end) {
+                chart.draw_series(DashedLineSeries::new(segment, 8, 5, colour.stroke_width(2)))?;
+            }
+        }
+        for segment in clipped_runs(&model.total, self.dev_range.start, self.dev_range.end) {
+            chart.draw_series(LineSeries::new(segment, BLACK.stroke_width(3)))?;
+        }
+        chart.draw_series(LineSeries::new(
+            self.measured.iter().map(|p| (p.tau, p.dev)),
+            MEASURED.stroke_width(1),
+        ))?;
+        chart.draw_series(
+            self.measured
+                .iter()
+                .map(|p| Circle::new((p.tau, p.dev), 3, MEASURED.filled())),
+        )?;
+
+        // --- z(τ) panel, on a symmetric log scale so |z| = 3 stays readable next to |z| = 100.
+        let b = symlog(self.z_bound);
+        let mut zchart = ChartBuilder::on(&bottom)
+            .margin(8)
+            .x_label_area_size(42)
+            .y_label_area_size(70)
+            .build_cartesian_2d(self.tau_range.clone().log_scale(), -b..b)?;
+        mesh_look(&mut zchart.configure_mesh())
+            .x_desc("τ [s]")
+            .y_desc("z (symmetric log scale)")
+            .x_labels(40)
+            .y_labels(0)
+            .x_label_formatter(&decade_label)
+            .draw()?;
+        zchart.draw_series(
+            spans
+                .iter()
+                .map(|&(lo, hi)| Rectangle::new([(lo, -b), (hi, b)], SHADE.filled())),
+        )?;
+        let (t0, t1) = (self.tau_range.start, self.tau_range.end);
+        let ticks = z_ticks(self.z_bound);
+        zchart.draw_series(
+            ticks
+                .iter()
+                .map(|&t| PathElement::new(vec![(t0, t), (t1, t)], GRID.stroke_width(1))),
+        )?;
+        let labels: Vec<((i32, i32), String)> = ticks
+            .iter()
+            .map(|&t| {
+                (
+                    zchart.backend_coord(&(t0, t)),
+                    plain_label(&symlog_inverse(t).round()),
+                )
+            })
+            .collect();
+        draw_ticks(&bottom, &labels, false)?;
+        zchart.draw_series(LineSeries::new(
+            [(t0, 0.0), (t1, 0.0)],
+            BLACK.stroke_width(1),
+        ))?;
+        for level in [-3.0, 3.0] {
+            zchart.draw_series(DashedLineSeries::new(
+                [(t0, symlog(level)), (t1, symlog(level))],
+                8,
+                5,
+                ALERT.stroke_width(2),
+            ))?;
+        }
+        zchart.draw_series(LineSeries::new(
+            model.z.iter().map(|&(tau, z)| (tau, symlog(z))),
+            RGBColor(90, 90, 90).stroke_width(1),
+        ))?;
+        zchart.draw_series(model.z.iter().map(|&(tau, z)| {
+            let colour = if z.abs() > 3.0 {
+                ALERT
+            } else {
+                RGBColor(60, 60, 60)
+            };
+            Circle::new((tau, symlog(z)), 3, colour.filled())
+        }))?;
+        Ok(())
+    }
+
+    fn legend(&self) -> Vec<(LegendMark, String)> {
+        let mut entries = vec![
+            (LegendMark::Points(MEASURED), "measured σ(τ)".to_string()),
+            (LegendMark::Fill(BAND), "confidence interval".to_string()),
+            (LegendMark::Line(BLACK, 3), "model total".to_string()),
+        ];
+        for name in &self.term_names {
+            let zero = self.models.iter().all(|(_, m)| {
+                m.terms
+                    .iter()
+                    .filter(|t| &t.name == name)
+                    .all(|t| t.curve.iter().all(|p| p.1 == 0.0))
+            });
+            let label = if zero {
+                format!("{name} (zero)")
+            } else {
+                name.clone()
+            };
+            entries.push((LegendMark::Dashed(self.term_colour(name)), label));
+        }
+        entries.push((LegendMark::Fill(SHADE), "failing τ (|z| > 3)".to_string()));
+        entries.push((LegendMark::Dashed(ALERT), "|z| = 3".to_string()));
+        entries
+    }
+}
+
+impl Figure for Panels<'_> {
+    fn size(&self) -> (u32, u32) {
+        (250 + 950 * self.models.len() as u32, 900)
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Drawn {
+        let (w, _) = root.dim_in_pixel();
+        let heading = if self.title.is_empty() {
+            format!("Allan deviation — {}", self.axis)
+        } else {
+            format!("{} — {}", self.title, self.axis)
+        };
+        let body = draw_heading(root, heading)?;
+        let (plots, legend) = body.split_horizontally(w - 250);
+        let columns = plots.split_evenly((1, self.models.len()));
+        for (area, (heading, model)) in columns.iter().zip(&self.models) {
+            self.draw_column(area, heading, model)?;
+        }
+        draw_legend(&legend, &self.legend(), 60)
+    }
+}
+
+/// Splits a curve into the runs that lie inside `lo..=hi` on a log–log plot.
+///
+/// Zeros (absent terms) break the line instead of dragging it to −∞; a segment that leaves the
+/// range is cut where it crosses the edge (interpolated in log–log, where the curves are nearly
+/// straight), so a term that falls below the plot ends at the axis instead of running along it.
+fn clipped_runs(curve: &[(f64, f64)], lo: f64, hi: f64) -> Vec<Vec<(f64, f64)>> {
+    let (llo, lhi) = (lo.ln(), hi.ln());
+    let mut runs: Vec<Vec<(f64, f64)>> = Vec::new();
+    let mut run: Vec<(f64, f64)> = Vec::new();
+    let mut flush = |run: &mut Vec<(f64, f64)>| {
+        if run.len() > 1 {
+            runs.push(std::mem::take(run));
+        } else {
+            run.clear();
+        }
+    };
+    for w in curve.windows(2) {
+        let ((t0, d0), (t1, d1)) = (w[0], w[1]);
+        if d0 <= 0.0 || d1 <= 0.0 {
+            flush(&mut run);
+            continue;
+        }
+        let (x0, y0, x1, y1) = (t0.ln(), d0.ln(), t1.ln(), d1.ln());
+        // Parameter range [a, b] of the segment inside llo ≤ y ≤ lhi.
+        let (mut a, mut b) = (0.0f64, 1.0f64);
+        let dy = y1 - y0;
+        if dy == 0.0 {
+            if y0 < llo || y0 > lhi {
+                flush(&mut run);
+                continue;
+            }
+        } else {
+            let (ta, tb) = ((llo - y0) / dy, (lhi - y0) / dy);
+            a = a.max(ta.min(tb));
+            b = b.min(ta.max(tb));
+            if a > b {
+                flush(&mut run);
+                continue;
+            }
+        }
+        let at = |u: f64| ((x0 + u * (x1 - x0)).exp(), (y0 + u * dy).exp());
+        if a > 0.0 {
+            flush(&mut run);
+        }
+        if run.is_empty() {
+            run.push(at(a));
+        }
+        run.push(at(b));
+        if b < 1.0 {
+            flush(&mut run);
+        }
+    }
+    flush(&mut run);
+    runs
+}
+
+/// The symmetric log transform of the z axis: linear near 0, logarithmic for large |z|.
+///
+/// # Formula
+/// ```text
+/// s(z) = sign(z) · log10(1 + |z|)
+/// ```
+fn symlog(z: f64) -> f64 {
+    z.signum() * z.abs().ln_1p() / std::f64::consts::LN_10
+}
+
+/// The inverse of [`symlog`].
+fn symlog_inverse(s: f64) -> f64 {
+    s.signum() * (10f64.powf(s.abs()) - 1.0)
+}
+
+/// Tick positions (in symlog units) for a z axis reaching ±`bound`: 0, ±3, ±10, ±30, ±100, …
+/// (±1 would crowd 0 and ±3, the values that matter).
+fn z_ticks(bound: f64) -> Vec<f64> {
+    let mut ticks = vec![0.0];
+    let mut decade = 1.0;
+    while decade <= bound {
+        for v in [decade, 3.0 * decade] {
+            if v > 1.0 && v <= bound {
+                ticks.extend([symlog(v), symlog(-v)]);
+            }
+        }
+        decade *= 10.0;
+    }
+    ticks.sort_by(f64::total_cmp);
+    ticks
+}
+
+/// Widens a failing span \[lo, hi\] by half a grid step on each side (geometric midpoints to the
+/// neighbouring τ of `grid`), so a single failing τ still shows as a band.
+fn pad_span(lo: f64, hi: f64, grid: &[f64]) -> (f64, f64) {
+    // Ratio of neighbouring τ; 10^(1/10) (the default grid density) when the grid cannot tell.
+    let step = grid
+        .windows(2)
+        .filter(|w| w[0] > 0.0 && w[1] > w[0])
+        .map(|w| w[1] / w[0])
+        .fold(f64::INFINITY, f64::min);
+    let step = if step.is_finite() {
+        step
+    } else {
+        10f64.powf(0.1)
+    };
+    let below = grid
+        .iter()
+        .copied()
+        .filter(|&t| t < lo)
+        .fold(lo / step, f64::max);
+    let above = grid
+        .iter()
+        .copied()
+        .filter(|&t| t > hi)
+        .fold(hi * step, f64::min);
+    ((lo * below).sqrt(), (hi * above).sqrt())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn close(a: &[(f64, f64)], b: &[(f64, f64)]) -> bool {
+        a.len() == b.len()
+            && a.iter()
+                .zip(b)
+                .all(|(p, q)| (p.0 - q.0).abs() < 1e-9 && (p.1 - q.1).abs() < 1e-9)
+    }
+
+    #[test]
+    fn zero_values_split_runs() {
+        let runs = clipped_runs(
+            &[(1.0, 1.0), (2.0, 1.0), (3.0, 0.0), (4.0, 2.0), (5.0, 3.0)],
+            0.1,
+            10.0,
+        );
+        assert_eq!(runs.len(), 2, "{runs:?}");
+        assert!(close(&runs[0], &[(1.0, 1.0), (2.0, 1.0)]), "{runs:?}");
+        assert!(close(&runs[1], &[(4.0, 2.0), (5.0, 3.0)]), "{runs:?}");
+    }
+
+    #[test]
+    fn lines_are_cut_at_the_axis() {
+        // σ = 1/τ from τ = 1 to 100 leaves the range [0.1, 10] at τ = 10.
+        let curve = [(1.0, 1.0), (100.0, 0.01)];
+        let runs = clipped_runs(&curve, 0.1, 10.0);
+        assert_eq!(runs.len(), 1);
+        assert!(close(&runs[0], &[(1.0, 1.0), (10.0, 0.1)]), "{runs:?}");
+        // Coming back in: out, in, out.
+        let curve = [(1.0, 1e-3), (10.0, 1.0), (100.0, 1e3)];
+        let runs = clipped_runs(&curve, 0.1, 10.0);
+        let want = [
+            (10f64.powf(2.0 / 3.0), 0.1),
+            (10.0, 1.0),
+            (10f64.powf(4.0 / 3.0), 10.0),
+        ];
+        assert_eq!(runs.len(), 1);
+        assert!(close(&runs[0], &want), "{runs:?}");
+        // Entirely below: nothing.
+        assert!(clipped_runs(&[(1.0, 1e-5), (2.0, 1e-6)], 0.1, 10.0).is_empty());
+    }
+
+    #[test]
+    fn symlog_round_trips_and_ticks() {
+        for z in [-150.0, -3.0, 0.0, 0.5, 3.0, 1e4] {
+            assert!((symlog_inverse(symlog(z)) - z).abs() < 1e-9 * z.abs().max(1.0));
+        }
+        let labels: Vec<f64> = z_ticks(40.0)
+            .into_iter()
+            .map(|t| symlog_inverse(t).round())
+            .collect();
+        assert_eq!(labels, [-30.0, -10.0, -3.0, 0.0, 3.0, 10.0, 30.0]);
+    }
+
+    #[test]
+    fn span_padding_reaches_half_way_to_neighbours() {
+        let grid = [1.0, 2.0, 4.0, 8.0];
+        let (lo, hi) = pad_span(2.0, 4.0, &grid);
+        assert!((lo - 2f64.sqrt()).abs() < 1e-12);
+        assert!((hi - 32f64.sqrt()).abs() < 1e-12);
+        // At the grid's end the smallest step ratio stands in for the missing neighbour.
+        let (lo, hi) = pad_span(8.0, 8.0, &grid);
+        assert!((lo - 32f64.sqrt()).abs() < 1e-12);
+        assert!((hi - 128f64.sqrt()).abs() < 1e-12);
+    }
+}

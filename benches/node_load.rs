@@ -32,12 +32,21 @@ fn cpu_ticks(pid: u32) -> Option<u64> {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with("--"))
+        .collect();
     let rate_hz: f64 = args.first().and_then(|a| a.parse().ok()).unwrap_or(2000.0);
     let seconds: f64 = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(20.0);
 
     let mut child = Command::new(env!("CARGO_BIN_EXE_fdavar_node"))
-        .args(["--ros-args", "-p", "publish_rate_hz:=2.0", "--log-level", "warn"])
+        .args([
+            "--ros-args",
+            "-p",
+            "publish_rate_hz:=2.0",
+            "--log-level",
+            "warn",
+        ])
         .env("ROS_DOMAIN_ID", DOMAIN.to_string())
         .stdout(Stdio::null())
         .spawn()
@@ -46,18 +55,25 @@ fn main() {
 
     let context = Context::with_options(ContextOptions::new().domain_id(DOMAIN)).expect("context");
     let mut node = context
-        .new_node(NodeName::new("/", "fdavar_bench").unwrap(), NodeOptions::new().enable_rosout(false))
+        .new_node(
+            NodeName::new("/", "fdavar_bench").unwrap(),
+            NodeOptions::new().enable_rosout(false),
+        )
         .expect("node");
     let imu_qos = QosProfile::subscription_default().history(History::KeepLast { depth: 100 });
     let imu = publish_on::<Imu>(&mut node, "/imu", &imu_qos).expect("imu publisher");
     let diag_qos = QosProfile::publisher_default().history(History::KeepLast { depth: 10 });
-    let diagnostics = subscribe_on::<DiagnosticArray>(&mut node, "/diagnostics", &diag_qos).expect("subscription");
+    let diagnostics = subscribe_on::<DiagnosticArray>(&mut node, "/diagnostics", &diag_qos)
+        .expect("subscription");
     let spinner = node.spinner().expect("spinner");
     std::thread::spawn(move || futures::executor::block_on(spinner.spin()));
 
     let matched_by = Instant::now() + Duration::from_secs(30);
     while imu.get_subscription_count(&node) == 0 {
-        assert!(Instant::now() < matched_by, "fdavar_node never matched the IMU publisher");
+        assert!(
+            Instant::now() < matched_by,
+            "fdavar_node never matched the IMU publisher"
+        );
         std::thread::sleep(Duration::from_millis(50));
     }
     std::thread::sleep(Duration::from_millis(500));
@@ -87,7 +103,7 @@ fn main() {
     let wall = start.elapsed().as_secs_f64();
     let ticks1 = cpu_ticks(pid).expect("read /proc");
     let cpu_s = (ticks1 - ticks0) as f64 / 100.0; // USER_HZ = 100 on Linux
-    // The latest /diagnostics after the node has published at least once more.
+                                                  // The latest /diagnostics after the node has published at least once more.
     std::thread::sleep(Duration::from_millis(1500));
     let mut last = None;
     while let Ok(Some((msg, _))) = diagnostics.take() {
@@ -100,7 +116,12 @@ fn main() {
         std::process::exit(1);
     };
     let gx = &array.status[0];
-    let get = |k: &str| gx.values.iter().find(|v| v.key == k).map_or("?", |v| v.value.as_str());
+    let get = |k: &str| {
+        gx.values
+            .iter()
+            .find(|v| v.key == k)
+            .map_or("?", |v| v.value.as_str())
+    };
     println!(
         "fdavar_node at {rate_hz} Hz for {wall:.1} s: sent {n}, counted {} samples, {} drops; \
          CPU {:.1} % of one core; receive-to-update latency p50 {} ms, p99 {} ms",

@@ -473,12 +473,18 @@ fn colcon_workspace_has_the_node_where_ros2_run_looks_and_importable_messages() 
     let node = install.join("fdavar/lib/fdavar/fdavar_node");
     if !node.is_file() {
         let why = format!("{} missing: run .ci/setup-ros.sh .venv", node.display());
-        assert!(std::env::var("FDAVAR_REQUIRE_PYTHON").as_deref() != Ok("1"), "{why}");
+        assert!(
+            std::env::var("FDAVAR_REQUIRE_PYTHON").as_deref() != Ok("1"),
+            "{why}"
+        );
         eprintln!("skipped: {why}");
         return;
     }
     // It is our node: a bad argument is refused with our message and exit code 1.
-    let out = Command::new(&node).args(["--ros-args", "--bogus"]).output().unwrap();
+    let out = Command::new(&node)
+        .args(["--ros-args", "--bogus"])
+        .output()
+        .unwrap();
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--ros-args: unknown argument"));
     // fdavar_msgs imports and decodes from the install tree (what `. install/setup.sh` gives).
@@ -487,9 +493,17 @@ fn colcon_workspace_has_the_node_where_ros2_run_looks_and_importable_messages() 
                   print(type(m).__name__, m.window_length, len(m.row))";
     let out = Command::new("bash")
         .arg("-c")
-        .arg(format!(". {}/setup.sh && {} -c '{script}'", install.display(), py.display()))
+        .arg(format!(
+            ". {}/setup.sh && {} -c '{script}'",
+            install.display(),
+            py.display()
+        ))
         .output()
         .unwrap();
     let said = String::from_utf8_lossy(&out.stdout);
-    assert!(said.contains("AxisState 171 1"), "stdout {said}\nstderr {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        said.contains("AxisState 171 1"),
+        "stdout {said}\nstderr {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }

@@ -6,17 +6,43 @@
 //! the new configuration: rows restart half a window later, on the new settings.
 
 use super::monitor::{Change, RowEngine};
+use crate::allan::AllanPoint;
+use crate::model::effects::{EffectKind, REGISTRY};
+use crate::model::ModelSpec;
 use crate::msgs::builtin_interfaces::Time;
-use crate::msgs::fdavar_msgs::{AxisState, DavarPoint};
+use crate::msgs::fdavar_msgs::{AxisState, Coefficient, DavarPoint, TauInterval};
 use crate::msgs::std_msgs::Header;
 use crate::pipeline::{AxisRow, DavarConfig, Output, Pipeline, PipelineError};
 use crate::signal::{Axis, ImuSample};
 
 /// [`Pipeline`] as a [`RowEngine`].
-#[derive(Debug)]
 pub struct PipelineEngine {
     pipeline: Pipeline,
     out: Output,
+    /// The spectral effects of the model in force (fitted per published row).
+    model: Vec<&'static dyn EffectKind>,
+}
+
+impl std::fmt::Debug for PipelineEngine {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let model: Vec<&str> = self.model.iter().map(|k| k.id()).collect();
+        f.debug_struct("PipelineEngine")
+            .field("pipeline", &self.pipeline)
+            .field("model", &model)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Weight iterations of the per-row fit (EDF recomputed from the model's noise mix).
+const FIT_ITERATIONS: usize = 3;
+
+/// The effect kinds of a model spec.
+///
+/// # Errors
+/// The spec's parse error (unknown effect, empty name).
+pub fn model_kinds(spec: &str) -> Result<Vec<&'static dyn EffectKind>, String> {
+    let spec = ModelSpec::parse(spec).map_err(|e| e.to_string())?;
+    spec.kinds(REGISTRY).map_err(|e| e.to_string())
 }
 
 impl PipelineEngine {
@@ -25,10 +51,14 @@ impl PipelineEngine {
     /// # Errors
     /// [`PipelineError`] when the configuration cannot run live (e.g. `sigma_ref.mode: record`,
     /// which needs the whole recording).
-    pub fn new(config: DavarConfig) -> Result<PipelineEngine, PipelineError> {
+    pub fn new(
+        config: DavarConfig,
+        model: Vec<&'static dyn EffectKind>,
+    ) -> Result<PipelineEngine, PipelineError> {
         Ok(PipelineEngine {
             pipeline: Pipeline::new(config, &Axis::ALL, None)?,
             out: Output::default(),
+            model,
         })
     }
 }
@@ -83,10 +113,51 @@ impl RowEngine for PipelineEngine {
                     Pipeline::new(*config, &Axis::ALL, None).map_err(|e| e.to_string())?;
                 Ok(())
             }
-            Change::Model(spec) => Err(format!(
-                "model '{spec}' accepted, but this build has no model fitter: coefficients and \
-                 fit_error stay empty"
-            )),
+            Change::Model(spec) => {
+                self.model = model_kinds(&spec)?;
+                Ok(())
+            }
         }
+    }
+
+    fn fit(&self, state: &mut AxisState) {
+        let points: Vec<AllanPoint> = state
+            .row
+            .iter()
+            .map(|p| AllanPoint {
+                m: (p.tau_s / state.sample_period_s).round() as usize,
+                tau: p.tau_s,
+                avar: p.avar,
+                terms: 0,
+                edf: p.edf,
+                ci_low: p.avar_low,
+                ci_high: p.avar_high,
+            })
+            .collect();
+        // Too few τ points or a degenerate row: the model fields stay empty (fit_error NaN).
+        let Ok(fit) = crate::model::fit_curve(&points, &self.model, FIT_ITERATIONS) else {
+            return;
+        };
+        state.fit_error = fit.fit_error;
+        state.failing_tau = fit
+            .failing_tau
+            .iter()
+            .map(|[low_s, high_s]| TauInterval {
+                low_s: *low_s,
+                high_s: *high_s,
+            })
+            .collect();
+        state.coefficients = fit
+            .terms
+            .iter()
+            .flat_map(|term| {
+                term.params.iter().map(|p| Coefficient {
+                    effect: term.effect.clone(),
+                    name: p.name.clone(),
+                    value: p.value,
+                    unit: p.unit.clone(),
+                })
+            })
+            .collect();
     }
 }

@@ -29,7 +29,17 @@ pub use node::{run, NodeConfig, NodeError};
 pub fn default_engine(
     config: &NodeConfig,
 ) -> Result<Option<Box<dyn monitor::RowEngine>>, NodeError> {
-    let engine = engine::PipelineEngine::new(config.davar_config.clone()).map_err(|e| {
+    let model = match config.params.get("model") {
+        Some(ros2_client::ParameterValue::String(spec)) => engine::model_kinds(spec),
+        _ => Err("model is not a string".to_string()),
+    }
+    .map_err(|reason| {
+        NodeError::Param(params::ParamError::Invalid {
+            name: "model".to_string(),
+            reason,
+        })
+    })?;
+    let engine = engine::PipelineEngine::new(config.davar_config.clone(), model).map_err(|e| {
         NodeError::Param(params::ParamError::Invalid {
             name: "(DAVAR settings)".to_string(),
             reason: e.to_string(),

@@ -28,6 +28,11 @@ pub trait RowEngine: Send {
     /// # Errors
     /// A reason when the engine cannot take the value (the node then keeps the old one).
     fn reconfigure(&mut self, change: Change) -> Result<(), String>;
+
+    /// Fills the model fields of a row about to be published (coefficients, fit_error,
+    /// failing_tau). Called at the publishing rate on the latest row of each axis, not per row:
+    /// a fit costs far more than a row.
+    fn fit(&self, _state: &mut AxisState) {}
 }
 
 /// A live change for the engine.
@@ -338,7 +343,15 @@ impl Monitor {
         let mut states = Vec::new();
         for axis in Axis::ALL {
             let i = axis.index();
-            let latest = self.latest[i].as_ref();
+            // The model is fitted here, on the row about to be published.
+            let fitted = self.latest[i].as_ref().map(|s| {
+                let mut s = s.clone();
+                if let Some(engine) = &self.engine {
+                    engine.fit(&mut s);
+                }
+                s
+            });
+            let latest = fitted.as_ref();
             let mut values = vec![
                 KeyValue::new("samples", c.samples),
                 KeyValue::new("drops", c.drops),
@@ -415,8 +428,7 @@ impl Monitor {
                 hardware_id: self.frame_id.clone(),
                 values,
             });
-            if let Some(s) = latest {
-                let mut s = s.clone();
+            if let Some(mut s) = fitted {
                 s.samples = c.samples;
                 s.drops = c.drops;
                 s.gaps = c.gaps;

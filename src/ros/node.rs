@@ -782,8 +782,12 @@ impl Analysis {
         let (mut array, states, line) = self.monitor.report(self.clock.now_ns());
         if let Some((p50, p99)) = self.latency.percentiles_ms() {
             for status in &mut array.status {
-                status.values.push(KeyValue::new("latency_p50_ms", format!("{p50:.3}")));
-                status.values.push(KeyValue::new("latency_p99_ms", format!("{p99:.3}")));
+                status
+                    .values
+                    .push(KeyValue::new("latency_p50_ms", format!("{p50:.3}")));
+                status
+                    .values
+                    .push(KeyValue::new("latency_p99_ms", format!("{p99:.3}")));
             }
         }
         if let Some(line) = line {

@@ -164,11 +164,15 @@ def scenario_diagnostics(peer):
         t = typed[-1]
         taus = [p.tau_s for p in t.row]
         result.update(typed_window=t.window_length, typed_f=t.f_value, row_points=len(t.row),
-                      coefficients=len(t.coefficients), axis=t.axis)
+                      coefficients={f"{c.effect}.{c.name}": c.value for c in t.coefficients},
+                      fit_error=t.fit_error, axis=t.axis)
         sane = (t.axis == "gyro_x" and 171 <= t.window_length <= 501 and math.isfinite(t.f_value)
                 and t.f_value > 0 and len(t.row) >= 3 and taus == sorted(taus)
                 and all(p.avar_low <= p.avar <= p.avar_high and p.edf > 0 for p in t.row)
-                and abs(t.sample_period_s - 0.005) < 1e-6)
+                and abs(t.sample_period_s - 0.005) < 1e-6
+                and len(t.coefficients) >= 3 and all(math.isfinite(c.value) and c.value >= 0
+                                                     for c in t.coefficients)
+                and math.isfinite(t.fit_error))
         if not sane:
             finish(False, "typed AxisState not sane", **result)
     finish(True, "", **result)

@@ -507,3 +507,11 @@ fn colcon_workspace_has_the_node_where_ros2_run_looks_and_importable_messages() 
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+#[test]
+fn setting_the_model_live_lowers_the_fit_error_of_a_hidden_sinusoid() {
+    let Some(py) = python() else { return };
+    let _node = start_node(69, &["-p", "publish_rate_hz:=2.0", "-p", "model:=N,B,K"]);
+    let v = peer(&py, 69, "model", Duration::from_secs(90), None);
+    eprintln!("model: {v}");
+}

@@ -357,13 +357,53 @@ def scenario_expect_samples(peer):
            rate_hz=kv(last, "rate_hz") if last else None)
 
 
+def scenario_model(peer):
+    """A hidden sinusoid on gyro_x: with model N,B,K the fit fails; after `ros2 param set model
+    N,B,K,sinusoid` the published fit_error must fall at least 3x. An invalid model is refused."""
+    import random
+    rng = random.Random(52)
+    if not peer.wait_for_node() or not peer.wait_for_match():
+        finish(False, "fdavar_node not up / not matched")
+
+    def run(seconds):
+        fit = []
+        end = time.monotonic() + seconds
+        next_t = time.monotonic()
+        while time.monotonic() < end:
+            peer.stamp_ns += 5_000_000
+            t = peer.stamp_ns * 1e-9
+            gx = 1e-3 * rng.gauss(0, 1) + 3e-3 * math.sin(2 * math.pi * 2.0 * t)
+            peer.imu_pub.publish(peer.imu(peer.stamp_ns, gx=gx))
+            next_t += 0.005
+            rclpy.spin_once(peer, timeout_sec=max(0.0, next_t - time.monotonic()))
+            while peer.diagnostics:
+                v = kv(status(peer.diagnostics.pop(0), "gyro_x"), "fit_error")
+                if v is not None and math.isfinite(float(v)):
+                    fit.append(float(v))
+        return fit
+
+    before = run(6.0)
+    r = peer.call(SetParameters, f"{NODE}/set_parameters", SetParameters.Request(
+        parameters=[param("model", "N,warp_drive"), param("model", "N,B,K,sinusoid")]))
+    results = [(x.successful, x.reason) for x in r.results] if r else []
+    after = run(8.0)
+    if len(before) < 2 or len(after) < 1:
+        finish(False, "too few fit_error values", before=before, after=after, results=results)
+    b = sorted(before[-3:])[len(before[-3:]) // 2]
+    a = sorted(after[-3:])[len(after[-3:]) // 2]
+    ok = (len(results) == 2 and not results[0][0] and "warp_drive" in results[0][1]
+          and results[1][0] and b >= 3 * a)
+    finish(ok, "" if ok else "fit_error did not fall 3x / refusal wrong", before=before,
+           after=after, results=results, ratio=b / a if a > 0 else None)
+
+
 def main():
     rclpy.init()
     peer = Peer()
     scenario = sys.argv[1]
     {"diagnostics": scenario_diagnostics, "params": scenario_params,
      "sim_time": scenario_sim_time, "bad_input": scenario_bad_input, "flood": scenario_flood,
-     "expect_samples": scenario_expect_samples}[scenario](peer)
+     "expect_samples": scenario_expect_samples, "model": scenario_model}[scenario](peer)
 
 
 if __name__ == "__main__":

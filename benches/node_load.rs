@@ -9,6 +9,7 @@
 //! - latency: the node's own `latency_p50_ms` / `latency_p99_ms` from `/diagnostics` (time from
 //!   taking a message off DDS to the end of its analysis update, over the last 8192 samples);
 //! - samples counted and drops (a full analysis queue).
+//!
 //! Not a test: numbers depend on the machine; nothing is asserted.
 
 use fdavar::msgs::diagnostic_msgs::DiagnosticArray;

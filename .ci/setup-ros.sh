@@ -38,6 +38,12 @@ ln -sfn "$ROOT/msg" "$WS/src/fdavar_msgs"
 # Keep colcon out of build products and the venv.
 for d in "$ROOT/target" "$VENV"; do touch "$d/COLCON_IGNORE"; done
 
+# colcon-ros-cargo runs `cargo build --target-dir $WS/build/fdavar` (dev profile): point that at
+# the repository's own target/ so the workspace build reuses what `cargo build`/`cargo test` made
+# instead of compiling every dependency a second time (CI time budget).
+mkdir -p "$WS/build"
+if [ ! -e "$WS/build/fdavar" ]; then ln -s "$ROOT/target" "$WS/build/fdavar"; fi
+
 # shellcheck disable=SC1091
 . "$VENV/bin/activate"
 export AMENT_PREFIX_PATH=$VIRTUAL_ENV

@@ -4,10 +4,18 @@
 //! parameter values, `ROS_DOMAIN_ID`, or DDS refusing to start). Bad messages never stop it.
 
 use std::process::ExitCode;
-use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
 
+#[cfg(not(feature = "ros"))]
 fn main() -> ExitCode {
+    eprintln!("fdavar_node: error: built without the `ros` feature; rebuild with default features");
+    ExitCode::from(1)
+}
+
+#[cfg(feature = "ros")]
+fn main() -> ExitCode {
+    use std::sync::atomic::AtomicBool;
+    use std::sync::Arc;
+
     let domain = std::env::var("ROS_DOMAIN_ID").ok();
     let (config, rest) =
         match fdavar::ros::NodeConfig::from_args(std::env::args().skip(1), domain.as_deref()) {

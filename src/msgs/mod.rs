@@ -14,7 +14,10 @@
 //! fdavar only needs a handful of fixed types, and a typed mirror fails loudly on a wrong type.
 
 pub mod builtin_interfaces;
+pub mod diagnostic_msgs;
+pub mod fdavar_msgs;
 pub mod geometry_msgs;
+pub mod rosgraph_msgs;
 pub mod sensor_msgs;
 pub mod std_msgs;
 
@@ -120,6 +123,18 @@ impl RosMessage for sensor_msgs::Imu {
 
 impl RosMessage for sensor_msgs::Temperature {
     const DEF: &'static MsgDef = &sensor_msgs::TEMPERATURE;
+}
+
+impl MsgDef {
+    /// The ROS package, e.g. `sensor_msgs` for `sensor_msgs/msg/Imu`.
+    pub fn package(&self) -> &'static str {
+        self.name.split('/').next().unwrap_or(self.name)
+    }
+
+    /// The type name inside its package, e.g. `Imu` for `sensor_msgs/msg/Imu`.
+    pub fn type_name(&self) -> &'static str {
+        self.name.rsplit('/').next().unwrap_or(self.name)
+    }
 }
 
 /// Serialises `msg` as rosbag2 stores it: the little-endian CDR header, then the CDR body.

@@ -1,11 +1,87 @@
-//! `fdavar diagnose` (not built yet; see its issue).
+//! `fdavar diagnose BAG [--model SPEC] [--topic T] [--axis A]... [--json] [--out DIR]`: which
+//! physical effect the noise model misses, per axis, best first.
 
+use crate::fit::{load, outcome, print_json, title, write_fit, Common};
 use crate::Outcome;
+use anyhow::Context;
+use fdavar::model::effects::REGISTRY;
+use fdavar::model::output::{allan_figure, comparison_figure, AxisReport, Report};
+use fdavar::model::{diagnose, FitOptions, ModelSpec};
+use std::io::Write;
+use std::path::PathBuf;
 
-/// `fdavar diagnose`: not built yet.
+/// Tell which physical effect the noise model misses on each axis.
+///
+/// Fits the model, refits with each effect of the vocabulary it lacks (time-domain effects only
+/// with their evidence: a temperature topic, the accel axes, a noise change) and suggests the
+/// gains that pay for their extra parameters, best first, with the fitted parameters and a
+/// sentence of physics. A model that already explains the data gets no suggestion.
+/// Exits 3 when a model fails (fit_error > 2).
 #[derive(Debug, clap::Args, PartialEq)]
-pub struct Args {}
+pub struct Args {
+    /// rosbag2 recording: a bag directory, a .mcap or a .db3.
+    pub bag: PathBuf,
+    /// Model to start from: comma-separated effect ids or aliases.
+    #[arg(long, default_value = ModelSpec::DEFAULT)]
+    pub model: String,
+    #[command(flatten)]
+    pub common: Common,
+}
 
-pub fn run(_args: &Args) -> anyhow::Result<Outcome> {
-    anyhow::bail!("'fdavar diagnose' is not built yet")
+pub fn run(args: &Args) -> anyhow::Result<Outcome> {
+    let spec = ModelSpec::parse(&args.model).context("invalid --model")?;
+    let rec = load(&args.bag, args.common.topic.as_deref())?;
+    let opts = FitOptions::default();
+    let mut diagnoses = Vec::new();
+    for axis in args.common.axes() {
+        let d = diagnose(&rec.input(axis), &spec, REGISTRY, &opts)
+            .with_context(|| format!("cannot diagnose {axis}"))?;
+        diagnoses.push(d);
+    }
+    if args.common.json {
+        let report = Report {
+            axes: diagnoses.iter().map(AxisReport::from_diagnosis).collect(),
+        };
+        print_json(&report)?;
+    } else {
+        let mut out = std::io::stdout().lock();
+        for d in &diagnoses {
+            write_fit(&mut out, &d.fit).context("writing output")?;
+            if d.suggestions.is_empty() {
+                writeln!(out, "  suggestions: none").context("writing output")?;
+            }
+            for (i, s) in d.suggestions.iter().enumerate() {
+                let ps: Vec<String> = s
+                    .params
+                    .iter()
+                    .map(|p| format!("{}={:.4e}", p.name, p.value))
+                    .collect();
+                writeln!(
+                    out,
+                    "  suggestion {}: add {} ({}) -> fit_error {:.2}\n    {}",
+                    i + 1,
+                    s.effect,
+                    ps.join(", "),
+                    s.fit_error_after,
+                    s.explanation
+                )
+                .context("writing output")?;
+            }
+        }
+    }
+    if let Some(dir) = &args.common.out {
+        let name = title(&args.bag);
+        for d in &diagnoses {
+            let axis = d.fit.axis;
+            fdavar::report::figure::write_allan(&allan_figure(&d.fit, &name), &dir.join(format!("allan_{axis}")))
+                .with_context(|| format!("cannot write the figure of {axis}"))?;
+            if let (Some(s), Some(after)) = (d.suggestions.first(), d.after.first()) {
+                let stem = dir.join(format!("suggestion_{axis}_{}", s.effect));
+                fdavar::report::figure::write_allan_comparison(&comparison_figure(&d.fit, after, &name), &stem)
+                    .with_context(|| format!("cannot write the before/after figure of {axis}"))?;
+            }
+        }
+    }
+    let fits: Vec<_> = diagnoses.into_iter().map(|d| d.fit).collect();
+    Ok(outcome(&rec, &fits))
 }

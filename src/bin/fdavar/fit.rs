@@ -1,11 +1,194 @@
-//! `fdavar fit` (not built yet; see its issue).
+//! `fdavar fit BAG --model SPEC [--topic T] [--axis A]... [--json] [--out DIR]`: fit a noise
+//! model to each axis's whole-record Allan variance and say where it fails.
+//!
+//! Also home of what `fdavar diagnose` shares: reading the bag into a
+//! [`fdavar::model::record::Recording`], the text table and the figures.
 
 use crate::Outcome;
+use anyhow::Context;
+use fdavar::bag::{BagMessage, BagReader};
+use fdavar::model::effects::REGISTRY;
+use fdavar::model::output::{allan_figure, AxisReport, Report};
+use fdavar::model::record::Recording;
+use fdavar::model::{fit, FitOptions, FittedModel, ModelSpec};
+use fdavar::report::units::{Coefficient, Sensor};
+use fdavar::signal::Axis;
+use std::io::Write;
+use std::path::{Path, PathBuf};
 
-/// `fdavar fit`: not built yet.
+/// fit_error above which a model is reported as failing (exit code 3).
+pub const FAILING_FIT_ERROR: f64 = 2.0;
+
+/// Fit a noise model to each axis of a rosbag2 recording.
+///
+/// Prints per axis the coefficients (SI and the seed's display units), fit_error (RMS of
+/// z = (σ²_meas − σ²_model)/(σ²_model·√(2/EDF)); about 1 when the model explains the data) and
+/// the τ ranges where |z| > 3. Exits 3 when a model fails (fit_error > 2).
 #[derive(Debug, clap::Args, PartialEq)]
-pub struct Args {}
+pub struct Args {
+    /// rosbag2 recording: a bag directory, a .mcap or a .db3.
+    pub bag: PathBuf,
+    /// Model: comma-separated effect ids or aliases, e.g. N,B,K,sinusoid.
+    #[arg(long)]
+    pub model: String,
+    #[command(flatten)]
+    pub common: Common,
+}
 
-pub fn run(_args: &Args) -> anyhow::Result<Outcome> {
-    anyhow::bail!("'fdavar fit' is not built yet")
+/// Flags `fit` and `diagnose` share.
+#[derive(Debug, clap::Args, PartialEq)]
+pub struct Common {
+    /// Imu topic (default: the only sensor_msgs/msg/Imu topic of the bag).
+    #[arg(long)]
+    pub topic: Option<String>,
+    /// Axis to analyse (repeatable; default: all six).
+    #[arg(long)]
+    pub axis: Vec<Axis>,
+    /// Print one JSON object (DESIGN §7) instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Directory for figures (PNG + SVG per axis).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+impl Common {
+    /// The axes asked for, all six by default.
+    pub fn axes(&self) -> Vec<Axis> {
+        if self.axis.is_empty() {
+            Axis::ALL.to_vec()
+        } else {
+            self.axis.clone()
+        }
+    }
+}
+
+pub fn run(args: &Args) -> anyhow::Result<Outcome> {
+    let spec = ModelSpec::parse(&args.model).context("invalid --model")?;
+    let rec = load(&args.bag, args.common.topic.as_deref())?;
+    let opts = FitOptions::default();
+    let mut fits = Vec::new();
+    for axis in args.common.axes() {
+        let f = fit(&rec.input(axis), &spec, REGISTRY, &opts)
+            .with_context(|| format!("cannot fit {axis}"))?;
+        fits.push(f);
+    }
+    if args.common.json {
+        let report = Report {
+            axes: fits.iter().map(AxisReport::from_fit).collect(),
+        };
+        print_json(&report)?;
+    } else {
+        let mut out = std::io::stdout().lock();
+        for f in &fits {
+            write_fit(&mut out, f).context("writing output")?;
+        }
+    }
+    if let Some(dir) = &args.common.out {
+        for f in &fits {
+            let stem = dir.join(format!("allan_{}", f.axis));
+            fdavar::report::figure::write_allan(&allan_figure(f, &title(&args.bag)), &stem)
+                .with_context(|| format!("cannot write the figure of {}", f.axis))?;
+        }
+    }
+    Ok(outcome(&rec, &fits))
+}
+
+/// Exit 3 when a model fails or the recording had irregularities (already reported on stderr).
+pub fn outcome(rec: &Recording, fits: &[FittedModel]) -> Outcome {
+    let irr = rec.irregularities;
+    let irregular = irr.gaps + irr.duplicates + irr.backwards + irr.non_finite;
+    if irregular > 0 {
+        eprintln!(
+            "fdavar: warning: {} gaps, {} duplicate and {} backwards stamps, {} non-finite values (left out and counted)",
+            irr.gaps, irr.duplicates, irr.backwards, irr.non_finite
+        );
+    }
+    let failing: Vec<String> = fits
+        .iter()
+        .filter(|f| f.fit_error > FAILING_FIT_ERROR)
+        .map(|f| format!("{} ({:.2})", f.axis, f.fit_error))
+        .collect();
+    if !failing.is_empty() {
+        eprintln!(
+            "fdavar: warning: the model fails on {} (fit_error > {FAILING_FIT_ERROR}); try `fdavar diagnose`",
+            failing.join(", ")
+        );
+    }
+    if irregular > 0 || !failing.is_empty() {
+        Outcome::Warnings
+    } else {
+        Outcome::Ok
+    }
+}
+
+/// A figure title from the bag's file name.
+pub fn title(bag: &Path) -> String {
+    bag.file_name()
+        .map_or_else(|| bag.display().to_string(), |n| n.to_string_lossy().into_owned())
+}
+
+/// Reads the IMU topic (and the temperature topic, if the bag has one) into a recording.
+pub fn load(path: &Path, topic: Option<&str>) -> anyhow::Result<Recording> {
+    let bag = BagReader::open(path).with_context(|| format!("cannot open {}", path.display()))?;
+    let imu_topic = bag.imu_topic(topic)?.name.clone();
+    let temp_topic = bag.temperature_topic(None)?.map(|t| t.name.clone());
+    let mut imu = Vec::new();
+    let mut temps = Vec::new();
+    for msg in bag.messages(&imu_topic, temp_topic.as_deref())? {
+        match msg.with_context(|| format!("reading {}", path.display()))? {
+            BagMessage::Imu { sample, .. } => imu.push(sample),
+            BagMessage::Temperature { sample, .. } => temps.push(sample),
+        }
+    }
+    imu.sort_by_key(|s| s.stamp_ns);
+    Recording::from_samples(&imu, &temps)
+        .with_context(|| format!("{}: topic {imu_topic}", path.display()))
+}
+
+/// Prints a JSON document and a newline.
+pub fn print_json<T: serde::Serialize>(doc: &T) -> anyhow::Result<()> {
+    let mut out = std::io::stdout().lock();
+    serde_json::to_writer(&mut out, doc).context("writing JSON")?;
+    writeln!(out).context("writing JSON")?;
+    Ok(())
+}
+
+/// The readable table of one fitted axis.
+pub fn write_fit(w: &mut dyn Write, f: &FittedModel) -> std::io::Result<()> {
+    writeln!(w, "{}  model {}  fit_error {:.2}", f.axis, f.spec, f.fit_error)?;
+    let sensor = Sensor::of_axis(f.axis.name());
+    for t in &f.terms {
+        for p in &t.params {
+            let sigma = p.sigma.map_or(String::new(), |s| format!(" ± {s:.3e}"));
+            let display = match (Coefficient::from_effect(&t.effect), sensor) {
+                (Some(c), Some(s)) if p.name == t.params[0].name => format!(
+                    "  = {:.4} {}",
+                    c.to_display(s, p.value),
+                    c.display_unit(s)
+                ),
+                _ => String::new(),
+            };
+            writeln!(
+                w,
+                "  {:<18} {:<18} {:>12.4e}{sigma} {}{display}",
+                t.effect, p.name, p.value, p.unit
+            )?;
+        }
+    }
+    if f.failing_tau.is_empty() {
+        writeln!(w, "  failing tau: none")?;
+    } else {
+        let spans: Vec<String> = f
+            .failing_tau
+            .iter()
+            .map(|r| format!("{:.3}-{:.3} s", r[0], r[1]))
+            .collect();
+        writeln!(w, "  failing tau: {}", spans.join(", "))?;
+    }
+    for e in &f.events {
+        let ps: Vec<String> = e.params.iter().map(|(k, v)| format!("{k}={v:.4}")).collect();
+        writeln!(w, "  event: {} {}", e.effect, ps.join(" "))?;
+    }
+    Ok(())
 }

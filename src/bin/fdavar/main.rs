@@ -9,6 +9,7 @@ mod davar;
 mod diagnose;
 mod fit;
 mod info;
+#[cfg(feature = "ros")]
 mod play;
 mod simulate;
 
@@ -54,6 +55,7 @@ enum Command {
     Fit(fit::Args),
     Diagnose(diagnose::Args),
     Simulate(simulate::Args),
+    #[cfg(feature = "ros")]
     Play(play::Args),
     Info(info::Args),
 }
@@ -73,6 +75,7 @@ fn main() -> ExitCode {
         Command::Fit(a) => fit::run(a),
         Command::Diagnose(a) => diagnose::run(a),
         Command::Simulate(a) => simulate::run(a),
+        #[cfg(feature = "ros")]
         Command::Play(a) => play::run(a),
         Command::Info(a) => info::run(a),
     };

@@ -1,0 +1,135 @@
+//! Benchmark of `fdavar_node` under a 2 kHz IMU: its CPU share and its receive-to-update latency.
+//!
+//! ```text
+//! cargo bench --bench node_load -- [RATE_HZ] [SECONDS]      (defaults 2000 Hz, 20 s)
+//! ```
+//! Starts the release `fdavar_node` on ROS_DOMAIN_ID 90, publishes `sensor_msgs/Imu` at RATE_HZ from
+//! this process (ros2-client, best effort), and reads
+//! - CPU share: the node's user+system time (/proc/PID/stat) over the publishing wall time;
+//! - latency: the node's own `latency_p50_ms` / `latency_p99_ms` from `/diagnostics` (time from
+//!   taking a message off DDS to the end of its analysis update, over the last 8192 samples);
+//! - samples counted and drops (a full analysis queue).
+//!
+//! Not a test: numbers depend on the machine; nothing is asserted.
+
+use fdavar::msgs::diagnostic_msgs::DiagnosticArray;
+use fdavar::msgs::sensor_msgs::Imu;
+use fdavar::ros::node::{publish_on, subscribe_on};
+use fdavar::signal::ImuSample;
+use ros2_client::qos::History;
+use ros2_client::{Context, ContextOptions, NodeName, NodeOptions, QosProfile};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+const DOMAIN: u16 = 90;
+
+fn cpu_ticks(pid: u32) -> Option<u64> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    // Fields after the command name (which may hold spaces) start after the last ')'.
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let fields: Vec<&str> = rest.split_whitespace().collect();
+    // utime and stime are fields 14 and 15 of stat, i.e. 11 and 12 after the state field.
+    Some(fields.get(11)?.parse::<u64>().ok()? + fields.get(12)?.parse::<u64>().ok()?)
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with("--"))
+        .collect();
+    let rate_hz: f64 = args.first().and_then(|a| a.parse().ok()).unwrap_or(2000.0);
+    let seconds: f64 = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(20.0);
+
+    let mut child = Command::new(env!("CARGO_BIN_EXE_fdavar_node"))
+        .args([
+            "--ros-args",
+            "-p",
+            "publish_rate_hz:=2.0",
+            "--log-level",
+            "warn",
+        ])
+        .env("ROS_DOMAIN_ID", DOMAIN.to_string())
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("start fdavar_node");
+    let pid = child.id();
+
+    let context = Context::with_options(ContextOptions::new().domain_id(DOMAIN)).expect("context");
+    let mut node = context
+        .new_node(
+            NodeName::new("/", "fdavar_bench").unwrap(),
+            NodeOptions::new().enable_rosout(false),
+        )
+        .expect("node");
+    let imu_qos = QosProfile::subscription_default().history(History::KeepLast { depth: 100 });
+    let imu = publish_on::<Imu>(&mut node, "/imu", &imu_qos).expect("imu publisher");
+    let diag_qos = QosProfile::publisher_default().history(History::KeepLast { depth: 10 });
+    let diagnostics = subscribe_on::<DiagnosticArray>(&mut node, "/diagnostics", &diag_qos)
+        .expect("subscription");
+    let spinner = node.spinner().expect("spinner");
+    std::thread::spawn(move || futures::executor::block_on(spinner.spin()));
+
+    let matched_by = Instant::now() + Duration::from_secs(30);
+    while imu.get_subscription_count(&node) == 0 {
+        assert!(
+            Instant::now() < matched_by,
+            "fdavar_node never matched the IMU publisher"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    std::thread::sleep(Duration::from_millis(500));
+
+    let period = Duration::from_secs_f64(1.0 / rate_hz);
+    let n = (seconds * rate_hz) as u64;
+    let ticks0 = cpu_ticks(pid).expect("read /proc");
+    let start = Instant::now();
+    let mut x = 0x2545_f491_4f6c_dd1d_u64;
+    for k in 0..n {
+        let due = start + period.mul_f64(k as f64);
+        if let Some(wait) = due.checked_duration_since(Instant::now()) {
+            std::thread::sleep(wait);
+        }
+        // xorshift noise: deterministic and cheap.
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        let v = (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+        let sample = ImuSample {
+            stamp_ns: 1_000_000_000 + (k as f64 * 1e9 / rate_hz) as i64,
+            gyro: [1e-3 * v, -1e-3 * v, 2e-3 * v],
+            accel: [1e-2 * v, 0.0, 9.81],
+        };
+        let _ = imu.publish(Imu::from_sample(&sample, "imu_link").unwrap());
+    }
+    let wall = start.elapsed().as_secs_f64();
+    let ticks1 = cpu_ticks(pid).expect("read /proc");
+    let cpu_s = (ticks1 - ticks0) as f64 / 100.0; // USER_HZ = 100 on Linux
+                                                  // The latest /diagnostics after the node has published at least once more.
+    std::thread::sleep(Duration::from_millis(1500));
+    let mut last = None;
+    while let Ok(Some((msg, _))) = diagnostics.take() {
+        last = Some(msg);
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    let Some(array) = last else {
+        eprintln!("no /diagnostics received");
+        std::process::exit(1);
+    };
+    let gx = &array.status[0];
+    let get = |k: &str| {
+        gx.values
+            .iter()
+            .find(|v| v.key == k)
+            .map_or("?", |v| v.value.as_str())
+    };
+    println!(
+        "fdavar_node at {rate_hz} Hz for {wall:.1} s: sent {n}, counted {} samples, {} drops; \
+         CPU {:.1} % of one core; receive-to-update latency p50 {} ms, p99 {} ms",
+        get("samples"),
+        get("drops"),
+        100.0 * cpu_s / wall,
+        get("latency_p50_ms"),
+        get("latency_p99_ms"),
+    );
+}

@@ -1,0 +1,203 @@
+//! Diagnosis: which effect the model lacks, judged by what adding it buys.
+//!
+//! For each vocabulary effect not in the model, the fit is redone with it, and the gain is scored
+//! with a penalised criterion. A suggestion must pass three tests:
+//! 1. the model fails: fit_error before > [`COMPLETE_FIT_ERROR`] (a model that explains the
+//!    measurement within its scatter gets no suggestion — false alarms cost as much as misses);
+//! 2. the extra parameters pay for themselves: Δχ² > [`PENALTY_PER_PARAM`]·p·ln K, a BIC penalty
+//!    scaled for the correlation of overlapping estimates at neighbouring τ (about 3 independent
+//!    points per 10 — the same factor as [`crate::model::fit::CORRELATION_INFLATION`]);
+//! 3. effect-size sanity: fit_error falls by at least [`MIN_IMPROVEMENT`]×, and a new spectral
+//!    amplitude is at least 2σ from zero.
+//!
+//! Time-domain effects are tried only with their evidence (DESIGN §6): a temperature topic, the
+//! accel axes (gyro axes only), and for `noise_burst` a DAVAR event or a windowed-variance change
+//! whose likelihood ratio is itself significant.
+//! Suggestions are sorted best first (lowest fit_error after).
+
+use crate::model::effects::{Domain, EffectKind, Evidence};
+use crate::model::fit::{fit, prepare, AxisInput, FitError, FitOptions, FittedModel, ParamValue};
+use crate::model::spec::ModelSpec;
+use crate::model::timedomain;
+use serde::{Deserialize, Serialize};
+
+/// fit_error at or below which a model counts as complete.
+pub const COMPLETE_FIT_ERROR: f64 = 2.0;
+/// BIC-like penalty per extra parameter, in units of ln K.
+pub const PENALTY_PER_PARAM: f64 = 3.0;
+/// Least factor by which fit_error must fall for a suggestion.
+pub const MIN_IMPROVEMENT: f64 = 1.5;
+/// An effect with a measured driver (temperature, the accel axes) is ranked before a shape-only
+/// effect unless the latter's fit_error after is this many times lower: a sinusoid or a
+/// Gauss–Markov process can mimic any driven disturbance on the Allan variance, but only the driven
+/// effect names its cause.
+pub const DRIVER_PREFERENCE: f64 = 1.5;
+/// Least windowed-variance likelihood ratio that counts as evidence of a noise change
+/// when no DAVAR event is given (a χ²₂-like statistic: 30 is far beyond chance over the ~10⁶
+/// candidate spans of an hour-long record).
+pub const MIN_BURST_LLR: f64 = 30.0;
+
+/// One suggested effect with what it buys.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Suggestion {
+    /// Effect id.
+    pub effect: String,
+    /// Its fitted parameters, SI.
+    pub params: Vec<ParamValue>,
+    /// fit_error of the model with this effect added.
+    pub fit_error_after: f64,
+    /// The effect's sentence of physics with the numbers filled in.
+    pub explanation: String,
+    /// χ² before minus χ² after.
+    pub delta_chi2: f64,
+    /// The penalty Δχ² had to beat.
+    pub threshold: f64,
+}
+
+/// The fit of the model asked for, and what to add to it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Diagnosis {
+    /// The model as asked.
+    pub fit: FittedModel,
+    /// Significant gains, best first.
+    pub suggestions: Vec<Suggestion>,
+    /// The refitted model of each suggestion, same order (for before/after figures).
+    pub after: Vec<FittedModel>,
+}
+
+/// Fits `spec` and scores every effect it lacks.
+///
+/// # Errors
+/// The errors of [`fit`] for the model itself; a candidate whose refit fails is skipped.
+pub fn diagnose(
+    input: &AxisInput<'_>,
+    spec: &ModelSpec,
+    registry: &[&'static dyn EffectKind],
+    opts: &FitOptions,
+) -> Result<Diagnosis, FitError> {
+    let base = prepare(input, spec, registry, opts)?;
+    let before = base.fit_spectral(spec, &base.spectral_kinds, opts)?;
+    let mut scored: Vec<(Suggestion, FittedModel)> = Vec::new();
+    for &kind in registry.iter().filter(|k| !spec.contains(k.id())) {
+        let own_evidence = matches!(kind.id(), "noise_burst" | "bias_step" | "temperature");
+        if before.fit_error > COMPLETE_FIT_ERROR || own_evidence {
+            let with = spec.with(kind.id());
+            let after = match kind.domain() {
+                Domain::Spectral => {
+                    let mut kinds = base.spectral_kinds.clone();
+                    kinds.push(kind);
+                    base.fit_spectral(&with, &kinds, opts)
+                }
+                Domain::TimeDomain => {
+                    if !evidence_present(kind, input) {
+                        continue;
+                    }
+                    fit(input, &with, registry, opts)
+                }
+            };
+            let Ok(after) = after else { continue };
+            let s = if own_evidence {
+                score_time_domain(kind, input, &before, &after)
+            } else {
+                score(kind, &before, &after)
+            };
+            if let Some(s) = s {
+                scored.push((s, after));
+            }
+        }
+    }
+    let rank = |s: &Suggestion| {
+        let driven = registry
+            .iter()
+            .find(|k| k.id() == s.effect)
+            .is_some_and(|k| matches!(k.evidence(), Evidence::Temperature | Evidence::Accel));
+        if driven {
+            s.fit_error_after / DRIVER_PREFERENCE
+        } else {
+            s.fit_error_after
+        }
+    };
+    scored.sort_by(|a, b| rank(&a.0).total_cmp(&rank(&b.0)));
+    let (suggestions, after) = scored.into_iter().unzip();
+    Ok(Diagnosis {
+        fit: before,
+        suggestions,
+        after,
+    })
+}
+
+/// Whether the recording holds the evidence a time-domain effect needs before it is tried.
+fn evidence_present(kind: &'static dyn EffectKind, input: &AxisInput<'_>) -> bool {
+    if !timedomain::has_evidence(kind, input) {
+        return false;
+    }
+    match kind.evidence() {
+        Evidence::Events if input.events.is_empty() => {
+            let b = timedomain::find_burst(input.rate, input.tau0);
+            b.strength > MIN_BURST_LLR
+        }
+        _ => true,
+    }
+}
+
+/// A time-domain effect judged on its own evidence.
+///
+/// A whole-record Allan variance is linear in the local variances, so a burst of white noise only
+/// raises the white level; a single bias step gives a τ¹ law indistinguishable from a rate random
+/// walk; a warm-up drift hides in the random walk and flicker terms. None of them can show in
+/// fit_error, so they are judged by their estimator's own statistic
+/// ([`timedomain::is_significant`]) and an effect-size check (a burst factor ≥ 1.2).
+fn score_time_domain(
+    kind: &'static dyn EffectKind,
+    input: &AxisInput<'_>,
+    before: &FittedModel,
+    after: &FittedModel,
+) -> Option<Suggestion> {
+    let est = timedomain::estimate(kind, input, input.rate).ok()?;
+    if !timedomain::is_significant(kind, &est) {
+        return None;
+    }
+    if kind.id() == "noise_burst" && est.values.get(2).is_none_or(|&f| f < 1.2) {
+        return None;
+    }
+    let term = after.term(kind.id())?;
+    Some(Suggestion {
+        effect: kind.id().to_string(),
+        params: term.params.clone(),
+        fit_error_after: after.fit_error,
+        explanation: term.explanation.clone(),
+        delta_chi2: before.chi2 - after.chi2,
+        threshold: est.strength,
+    })
+}
+
+/// The suggestion for `kind` if the gain from `before` to `after` passes the criterion.
+fn score(
+    kind: &'static dyn EffectKind,
+    before: &FittedModel,
+    after: &FittedModel,
+) -> Option<Suggestion> {
+    let k = before.points.len().max(2) as f64;
+    let extra = after.n_params.saturating_sub(before.n_params).max(1) as f64;
+    let threshold = PENALTY_PER_PARAM * extra * k.ln();
+    let delta = before.chi2 - after.chi2;
+    if !(delta > threshold && after.fit_error * MIN_IMPROVEMENT < before.fit_error) {
+        return None;
+    }
+    let term = after.term(kind.id())?;
+    if kind.domain() == Domain::Spectral {
+        let amp = term.params.first()?;
+        let significant = amp.value > 0.0 && amp.sigma.is_none_or(|s| amp.value > 2.0 * s);
+        if !significant {
+            return None;
+        }
+    }
+    Some(Suggestion {
+        effect: kind.id().to_string(),
+        params: term.params.clone(),
+        fit_error_after: after.fit_error,
+        explanation: term.explanation.clone(),
+        delta_chi2: delta,
+        threshold,
+    })
+}

@@ -1,0 +1,162 @@
+//! The JSON of `fdavar fit` / `fdavar diagnose` (DESIGN §7, **contract**) and the figures' data.
+//!
+//! `{"axes": [{"axis", "model": [names], "fit_error", "coefficients": {effect: {param: value}},
+//! "failing_tau": [[lo, hi]], "events": [{"effect", ...params}], "suggestions": [{"effect",
+//! "params": {...}, "fit_error_after", "explanation"}]}]}`; `fit` omits `suggestions`.
+//! Values are SI. Plain data, built from a [`FittedModel`] / [`Diagnosis`]; no I/O here.
+
+use crate::model::diagnose::Diagnosis;
+use crate::model::fit::FittedModel;
+use crate::report::figure::{AllanComparison, AllanFigure, MeasuredPoint, ModelCurves, Term};
+use serde::Serialize;
+use serde_json::{Map, Value};
+
+/// The top-level JSON object.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Report {
+    /// One entry per analysed axis.
+    pub axes: Vec<AxisReport>,
+}
+
+/// One axis of the JSON.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AxisReport {
+    /// Axis name.
+    pub axis: String,
+    /// Effect ids of the model.
+    pub model: Vec<String>,
+    /// **contract** fit_error.
+    pub fit_error: f64,
+    /// effect → parameter → value (SI).
+    pub coefficients: Map<String, Value>,
+    /// **contract** failing τ intervals, seconds.
+    pub failing_tau: Vec<[f64; 2]>,
+    /// Events: `{"effect": id, param: value, …}`.
+    pub events: Vec<Map<String, Value>>,
+    /// Suggestions, best first (diagnose only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub suggestions: Option<Vec<Map<String, Value>>>,
+}
+
+fn number(v: f64) -> Value {
+    serde_json::Number::from_f64(v).map_or(Value::Null, Value::Number)
+}
+
+impl AxisReport {
+    /// The JSON entry of a fitted model (no suggestions).
+    pub fn from_fit(fit: &FittedModel) -> Self {
+        let coefficients = fit
+            .terms
+            .iter()
+            .map(|t| {
+                let params: Map<String, Value> =
+                    t.params.iter().map(|p| (p.name.clone(), number(p.value))).collect();
+                (t.effect.clone(), Value::Object(params))
+            })
+            .collect();
+        let events = fit
+            .events
+            .iter()
+            .map(|e| {
+                let mut m = Map::new();
+                m.insert("effect".into(), Value::String(e.effect.clone()));
+                for (k, v) in &e.params {
+                    m.insert(k.clone(), number(*v));
+                }
+                m
+            })
+            .collect();
+        AxisReport {
+            axis: fit.axis.name().to_string(),
+            model: fit.spec.ids().to_vec(),
+            fit_error: fit.fit_error,
+            coefficients,
+            failing_tau: fit.failing_tau.clone(),
+            events,
+            suggestions: None,
+        }
+    }
+
+    /// The JSON entry of a diagnosis (with suggestions).
+    pub fn from_diagnosis(d: &Diagnosis) -> Self {
+        let mut r = Self::from_fit(&d.fit);
+        r.suggestions = Some(
+            d.suggestions
+                .iter()
+                .map(|s| {
+                    let mut m = Map::new();
+                    m.insert("effect".into(), Value::String(s.effect.clone()));
+                    let params: Map<String, Value> =
+                        s.params.iter().map(|p| (p.name.clone(), number(p.value))).collect();
+                    m.insert("params".into(), Value::Object(params));
+                    m.insert("fit_error_after".into(), number(s.fit_error_after));
+                    m.insert("explanation".into(), Value::String(s.explanation.clone()));
+                    m
+                })
+                .collect(),
+        );
+        r
+    }
+}
+
+/// The measured deviations of a fit, for the figures.
+pub fn measured_points(fit: &FittedModel) -> Vec<MeasuredPoint> {
+    fit.points
+        .iter()
+        .map(|p| MeasuredPoint {
+            tau: p.tau,
+            dev: p.measured.sqrt(),
+            dev_low: p.ci.0.max(0.0).sqrt(),
+            dev_high: p.ci.1.sqrt(),
+        })
+        .collect()
+}
+
+/// A fitted model's curves, residuals and error, for the figures.
+pub fn model_curves(fit: &FittedModel) -> ModelCurves {
+    let tau: Vec<f64> = fit.points.iter().map(|p| p.tau).collect();
+    ModelCurves {
+        label: fit
+            .terms
+            .iter()
+            .map(|t| t.alias.clone().unwrap_or_else(|| t.effect.clone()))
+            .collect::<Vec<_>>()
+            .join(" + "),
+        total: fit.points.iter().map(|p| (p.tau, p.model.max(0.0).sqrt())).collect(),
+        terms: fit
+            .terms
+            .iter()
+            .filter(|t| !t.curve.is_empty())
+            .map(|t| Term {
+                name: t.alias.clone().unwrap_or_else(|| t.effect.clone()),
+                curve: tau.iter().zip(&t.curve).map(|(&x, &v)| (x, v.max(0.0).sqrt())).collect(),
+            })
+            .collect(),
+        z: fit.points.iter().map(|p| (p.tau, p.z)).collect(),
+        failing_tau: fit.failing_tau.iter().map(|r| (r[0], r[1])).collect(),
+        fit_error: fit.fit_error,
+    }
+}
+
+/// The Allan figure of one fitted axis.
+pub fn allan_figure(fit: &FittedModel, title: &str) -> AllanFigure {
+    AllanFigure {
+        axis: fit.axis.name().to_string(),
+        unit: fit.axis.rate_unit().to_string(),
+        title: title.to_string(),
+        measured: measured_points(fit),
+        model: model_curves(fit),
+    }
+}
+
+/// The before/after figure of a suggestion.
+pub fn comparison_figure(before: &FittedModel, after: &FittedModel, title: &str) -> AllanComparison {
+    AllanComparison {
+        axis: before.axis.name().to_string(),
+        unit: before.axis.rate_unit().to_string(),
+        title: title.to_string(),
+        measured: measured_points(before),
+        before: model_curves(before),
+        after: model_curves(after),
+    }
+}

@@ -1,0 +1,172 @@
+//! `ModelSpec`: which effects a model contains, as plain data.
+//!
+//! A spec is what the user asked for (`N,B,K,sinusoid`), not a fitted model: it holds the canonical
+//! effect ids, compares with `==`, and survives a serde round trip, so the CLI, the node's
+//! parameters and the reports can all carry it. Names are resolved through the effect registry,
+//! so a new effect is usable in a spec as soon as it is in [`effects::REGISTRY`].
+
+use crate::model::effects::{self, EffectKind};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+
+/// The effects of a noise model, by canonical id, in the order given (duplicates removed).
+#[derive(Debug, Clone, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(transparent)]
+pub struct ModelSpec {
+    effects: Vec<String>,
+}
+
+/// A model spec that names an effect the registry does not know, or names nothing.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum SpecError {
+    /// A name that is neither an effect id nor an alias.
+    #[error("unknown effect '{name}' in model spec (known: {known})")]
+    UnknownEffect {
+        /// The name as given.
+        name: String,
+        /// The known ids and aliases, comma-separated.
+        known: String,
+    },
+    /// The spec is empty.
+    #[error("empty model spec: give effect names or aliases, e.g. N,B,K")]
+    Empty,
+}
+
+impl ModelSpec {
+    /// The default model of `fdavar diagnose`: white noise, bias instability and rate random walk.
+    pub const DEFAULT: &'static str = "N,B,K";
+
+    /// Parses `N,B,K,sinusoid` against the crate's registry.
+    ///
+    /// # Errors
+    /// [`SpecError::UnknownEffect`] naming the first unknown term, [`SpecError::Empty`].
+    pub fn parse(s: &str) -> Result<Self, SpecError> {
+        Self::parse_in(s, effects::REGISTRY)
+    }
+
+    /// Parses against a given registry (tests and embedders with their own effect kinds).
+    ///
+    /// # Errors
+    /// As [`ModelSpec::parse`].
+    pub fn parse_in(s: &str, registry: &[&'static dyn EffectKind]) -> Result<Self, SpecError> {
+        let mut spec = ModelSpec::default();
+        for name in s.split(',').map(str::trim).filter(|n| !n.is_empty()) {
+            let kind = lookup(registry, name).ok_or_else(|| SpecError::UnknownEffect {
+                name: name.to_string(),
+                known: known_names(registry),
+            })?;
+            spec = spec.with(kind.id());
+        }
+        if spec.effects.is_empty() {
+            return Err(SpecError::Empty);
+        }
+        Ok(spec)
+    }
+
+    /// The spec built from ids known to be canonical (e.g. from a fitted model).
+    pub fn from_ids<I: IntoIterator<Item = S>, S: Into<String>>(ids: I) -> Self {
+        ids.into_iter()
+            .fold(ModelSpec::default(), |s, id| s.with(&id.into()))
+    }
+
+    /// The effect ids, in order.
+    pub fn ids(&self) -> &[String] {
+        &self.effects
+    }
+
+    /// True when the spec has effect `id`.
+    pub fn contains(&self, id: &str) -> bool {
+        self.effects.iter().any(|e| e == id)
+    }
+
+    /// This spec with `id` appended (unchanged if present).
+    pub fn with(&self, id: &str) -> Self {
+        let mut out = self.clone();
+        if !out.contains(id) {
+            out.effects.push(id.to_string());
+        }
+        out
+    }
+
+    /// The kinds of the spec's effects, looked up in `registry`.
+    ///
+    /// # Errors
+    /// [`SpecError::UnknownEffect`] when an id is missing from `registry`.
+    pub fn kinds(
+        &self,
+        registry: &[&'static dyn EffectKind],
+    ) -> Result<Vec<&'static dyn EffectKind>, SpecError> {
+        self.effects
+            .iter()
+            .map(|id| {
+                lookup(registry, id).ok_or_else(|| SpecError::UnknownEffect {
+                    name: id.clone(),
+                    known: known_names(registry),
+                })
+            })
+            .collect()
+    }
+}
+
+fn lookup(registry: &[&'static dyn EffectKind], name: &str) -> Option<&'static dyn EffectKind> {
+    registry
+        .iter()
+        .copied()
+        .find(|k| k.id() == name || k.alias() == Some(name))
+}
+
+fn known_names(registry: &[&'static dyn EffectKind]) -> String {
+    registry
+        .iter()
+        .map(|k| match k.alias() {
+            Some(a) => format!("{} ({a})", k.id()),
+            None => k.id().to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+impl FromStr for ModelSpec {
+    type Err = SpecError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        ModelSpec::parse(s)
+    }
+}
+
+impl fmt::Display for ModelSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.effects.join(","))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::testkit::KINDS;
+
+    #[test]
+    fn parses_ids_and_aliases_in_order_without_duplicates() {
+        let s = ModelSpec::parse_in(" N, B ,K,sinusoid,white", KINDS).unwrap();
+        assert_eq!(s.ids(), ["white", "bias_instability", "random_walk", "sinusoid"]);
+        assert_eq!(s.to_string(), "white,bias_instability,random_walk,sinusoid");
+        assert_eq!(ModelSpec::parse_in(&s.to_string(), KINDS).unwrap(), s);
+    }
+
+    #[test]
+    fn names_the_unknown_term() {
+        let err = ModelSpec::parse_in("N,Bogus", KINDS).unwrap_err();
+        assert!(matches!(&err, SpecError::UnknownEffect { name, .. } if name == "Bogus"));
+        assert!(err.to_string().contains("white (N)"));
+        assert_eq!(ModelSpec::parse_in(" , ", KINDS), Err(SpecError::Empty));
+    }
+
+    #[test]
+    fn serde_round_trip() {
+        let s = ModelSpec::parse_in("N,K", KINDS).unwrap();
+        let j = serde_json::to_string(&s).unwrap();
+        assert_eq!(j, r#"["white","random_walk"]"#);
+        assert_eq!(serde_json::from_str::<ModelSpec>(&j).unwrap(), s);
+    }
+}

@@ -1,0 +1,406 @@
+//! Time-domain estimators: effects located in time or driven by another signal.
+//!
+//! A bias step or a noise burst has no τ-law (its Allan signature depends on where it sits in the
+//! record), and temperature or g-sensitivity is best measured against the signal that drives it.
+//! So these effects are estimated on the rate samples, and removed from them before the Allan fit
+//! of the rest. The estimators are chosen by the effect's contract id (DESIGN §4); every value
+//! goes through the effect's `build`, which validates it.
+//!
+//! Estimation order: the regressions first (temperature, g-sensitivity: they explain the slow and
+//! the vibration parts a step or burst search would otherwise mistake), then the step, then the
+//! burst (the burst search looks at sample-to-sample differences, which a step barely touches).
+
+use crate::model::effects::EffectKind;
+use crate::model::fit::{AxisInput, FitError};
+
+/// What an estimator found: values in the effect's schema order, 1σ where known.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Estimate {
+    /// Parameter values in schema order, SI.
+    pub values: Vec<f64>,
+    /// 1σ uncertainties in schema order.
+    pub sigmas: Vec<Option<f64>>,
+    /// True when the effect is located in time (reported as an event).
+    pub is_event: bool,
+    /// A log-likelihood-ratio-like strength of the detection (≥ 0), for the diagnosis.
+    pub strength: f64,
+}
+
+const ORDER: [&str; 4] = ["temperature", "g_sensitivity", "bias_step", "noise_burst"];
+
+/// The time-domain kinds sorted in estimation order (unknown ids last, in the order given).
+pub fn in_estimation_order(kinds: &[&'static dyn EffectKind]) -> Vec<&'static dyn EffectKind> {
+    let rank = |k: &&'static dyn EffectKind| ORDER.iter().position(|&id| id == k.id()).unwrap_or(ORDER.len());
+    let mut v = kinds.to_vec();
+    v.sort_by_key(rank);
+    v
+}
+
+/// True when the recording carries the evidence `kind` needs on this axis.
+pub fn has_evidence(kind: &dyn EffectKind, input: &AxisInput<'_>) -> bool {
+    match kind.id() {
+        "temperature" => input.temperature_c.is_some(),
+        "g_sensitivity" => input.accel.is_some() && input.axis.is_gyro(),
+        _ => true,
+    }
+}
+
+/// Estimates a time-domain effect on `series` (the axis's rate, with earlier effects removed).
+///
+/// # Errors
+/// [`FitError::MissingEvidence`] without the driving signal; [`FitError::NoEstimator`] for an id
+/// this module does not know.
+pub fn estimate(
+    kind: &'static dyn EffectKind,
+    input: &AxisInput<'_>,
+    series: &[f64],
+) -> Result<Estimate, FitError> {
+    let missing = |needs| FitError::MissingEvidence {
+        axis: input.axis.name(),
+        effect: kind.id(),
+        needs,
+    };
+    match kind.id() {
+        "temperature" => {
+            let t = input.temperature_c.ok_or_else(|| missing("a temperature topic"))?;
+            let (c, s, _) = regress(series, t);
+            let (_, _, strength) = regress_slow(series, t);
+            Ok(Estimate { values: vec![c], sigmas: vec![Some(s)], is_event: false, strength })
+        }
+        "g_sensitivity" => {
+            let acc = input
+                .accel
+                .filter(|_| input.axis.is_gyro())
+                .ok_or_else(|| missing("the accelerometer axes of the same IMU (gyro axes only)"))?;
+            let best = (0..3)
+                .map(|src| (src, regress(series, acc[src])))
+                .max_by(|a, b| a.1 .2.total_cmp(&b.1 .2))
+                .map(|(src, r)| (src, r))
+                .unwrap_or((0, (0.0, 0.0, 0.0)));
+            let (src, (c, s, strength)) = best;
+            Ok(Estimate {
+                values: vec![src as f64, c],
+                sigmas: vec![None, Some(s)],
+                is_event: false,
+                strength,
+            })
+        }
+        "bias_step" => {
+            let (i, size, strength) = find_step(series);
+            Ok(Estimate {
+                values: vec![i as f64 * input.tau0, size],
+                sigmas: vec![None, None],
+                is_event: true,
+                strength,
+            })
+        }
+        "noise_burst" => {
+            let b = find_burst(series, input.tau0);
+            Ok(Estimate {
+                values: vec![b.start as f64 * input.tau0, b.end as f64 * input.tau0, b.factor.max(1.0)],
+                sigmas: vec![None, None, None],
+                is_event: true,
+                strength: b.strength,
+            })
+        }
+        _ => Err(FitError::NoEstimator(kind.id())),
+    }
+}
+
+/// Removes an estimated effect from `series`.
+pub fn remove(kind: &dyn EffectKind, est: &Estimate, input: &AxisInput<'_>, series: &mut [f64]) {
+    let v = &est.values;
+    match kind.id() {
+        "temperature" => {
+            if let Some(t) = input.temperature_c {
+                let mean = finite_mean(t);
+                series.iter_mut().zip(t).for_each(|(y, c)| *y -= v[0] * (c - mean));
+            }
+        }
+        "g_sensitivity" => {
+            if let Some(acc) = input.accel {
+                let src = acc[(v[0].round() as usize).min(2)];
+                let mean = finite_mean(src);
+                series.iter_mut().zip(src).for_each(|(y, a)| *y -= v[1] * (a - mean));
+            }
+        }
+        "bias_step" => {
+            let start = (v[0] / input.tau0).round() as usize;
+            series.iter_mut().skip(start).for_each(|y| *y -= v[1]);
+        }
+        "noise_burst" => {
+            let start = (v[0] / input.tau0).round() as usize;
+            let end = ((v[1] / input.tau0).round() as usize).min(series.len());
+            shrink_white(&mut series[start.min(end)..end], v[2], block_len(input.tau0));
+        }
+        _ => {}
+    }
+}
+
+fn finite_mean(x: &[f64]) -> f64 {
+    let (s, n) = x
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+    if n > 0 {
+        s / n as f64
+    } else {
+        0.0
+    }
+}
+
+/// Least-squares slope of `y` on `x` (both demeaned, NaN pairs skipped), its standard error, and
+/// the squared t statistic (the strength).
+///
+/// # Formula
+/// ```text
+/// c = Σ (x−x̄)(y−ȳ) / Σ (x−x̄)²,   se² = Σ r² / ((n−2)·Σ (x−x̄)²),   strength = (c/se)²
+/// ```
+pub fn regress(y: &[f64], x: &[f64]) -> (f64, f64, f64) {
+    let pairs = || y.iter().zip(x).filter(|(a, b)| a.is_finite() && b.is_finite());
+    let n = pairs().count();
+    if n < 3 {
+        return (0.0, f64::INFINITY, 0.0);
+    }
+    let (sy, sx) = pairs().fold((0.0, 0.0), |(sy, sx), (a, b)| (sy + a, sx + b));
+    let (my, mx) = (sy / n as f64, sx / n as f64);
+    let (sxy, sxx) = pairs().fold((0.0, 0.0), |(sxy, sxx), (a, b)| {
+        (sxy + (b - mx) * (a - my), sxx + (b - mx) * (b - mx))
+    });
+    if sxx <= 0.0 {
+        return (0.0, f64::INFINITY, 0.0);
+    }
+    let c = sxy / sxx;
+    let rss: f64 = pairs()
+        .map(|(a, b)| {
+            let r = (a - my) - c * (b - mx);
+            r * r
+        })
+        .sum();
+    let se = (rss / ((n - 2) as f64 * sxx)).sqrt();
+    let strength = if se > 0.0 { (c / se).powi(2) } else { f64::INFINITY };
+    (c, se, strength)
+}
+
+/// Least-squares slope between the first differences of coarse block means (record/20 per
+/// block), its standard error corrected for the lag-1 autocorrelation ρ ≥ 0 of the residuals,
+/// and the squared t statistic: the significance of a slow driver such as temperature.
+///
+/// Why differences: a temperature drifts over minutes, where the sensor's random walk lives too,
+/// and a regression of one smooth curve on another has about one degree of freedom whatever the
+/// number of samples (a "spurious regression"). Differencing turns a random walk into white
+/// increments; the levels are kept for the coefficient itself (efficient when the effect is
+/// strong), the differences only decide whether it is real.
+///
+/// # Formula
+/// ```text
+/// Δȳₖ = ȳₖ₊₁ − ȳₖ,  Δx̄ₖ = x̄ₖ₊₁ − x̄ₖ,   c = OLS slope of Δȳ on Δx̄
+/// se_eff = se·√((1+ρ)/(1−ρ)),   strength = (c/se_eff)²
+/// ```
+pub fn regress_slow(y: &[f64], x: &[f64]) -> (f64, f64, f64) {
+    let block = (y.len() / 20).max(1);
+    let ym: Vec<f64> = y.chunks(block).map(finite_mean).collect();
+    let xm: Vec<f64> = x.chunks(block).map(finite_mean).collect();
+    let dy: Vec<f64> = ym.windows(2).map(|w| w[1] - w[0]).collect();
+    let dx: Vec<f64> = xm.windows(2).map(|w| w[1] - w[0]).collect();
+    let (c, se, _) = regress(&dy, &dx);
+    let (mx, my) = (finite_mean(&dx), finite_mean(&dy));
+    let r: Vec<f64> = dy.iter().zip(&dx).map(|(a, b)| (a - my) - c * (b - mx)).collect();
+    let var: f64 = r.iter().map(|v| v * v).sum();
+    let lag: f64 = r.windows(2).map(|w| w[0] * w[1]).sum();
+    let rho = if var > 0.0 { (lag / var).clamp(0.0, 0.95) } else { 0.0 };
+    let se_eff = se * ((1.0 + rho) / (1.0 - rho)).sqrt();
+    let strength = if se_eff > 0.0 { (c / se_eff).powi(2) } else { 0.0 };
+    (c, se_eff, strength)
+}
+
+/// Whether a time-domain estimate is significant on its own evidence.
+///
+/// Thresholds on the estimators' statistics: a regression's t² > 25 (5σ), a step contrast
+/// > 40 times its robust variance (6.3σ: the maximum over ~n/W positions of a χ²₁ stays far
+/// below), a burst's likelihood ratio > 30.
+pub fn is_significant(kind: &dyn EffectKind, est: &Estimate) -> bool {
+    let threshold = match kind.id() {
+        "temperature" | "g_sensitivity" => 25.0,
+        "bias_step" => 40.0,
+        "noise_burst" => 30.0,
+        _ => return false,
+    };
+    est.strength > threshold
+}
+
+/// Samples per block for windowed statistics: about one second, at least 8 samples.
+fn block_len(tau0: f64) -> usize {
+    ((1.0 / tau0).round() as usize).max(8)
+}
+
+/// The most likely single step in the mean: local two-window contrast, maximised.
+///
+/// Returns (first sample after the step, size, strength = contrast² / its robust typical value).
+///
+/// # Formula
+/// ```text
+/// D(i) = mean(y[i..i+W]) − mean(y[i−W..i]),   i* = argmax |D(i)|,   size = D(i*)
+/// ```
+/// W = n/30 samples: long enough to average the white noise, short enough that a random walk
+/// does not look like a step.
+pub fn find_step(y: &[f64]) -> (usize, f64, f64) {
+    let n = y.len();
+    let w = (n / 30).max(2);
+    if n < 2 * w + 1 {
+        return (0, 0.0, 0.0);
+    }
+    let mut prefix = Vec::with_capacity(n + 1);
+    let mut acc = 0.0;
+    prefix.push(0.0);
+    for &v in y {
+        acc += if v.is_finite() { v } else { 0.0 };
+        prefix.push(acc);
+    }
+    let wf = w as f64;
+    let contrast = |i: usize| (prefix[i + w] - prefix[i]) / wf - (prefix[i] - prefix[i - w]) / wf;
+    let (best_i, best_d) = (w..=n - w)
+        .map(|i| (i, contrast(i)))
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+        .unwrap_or((0, 0.0));
+    // E[D²] = 2σ²_A(W·τ0) for stationary noise; estimated robustly from the median of D² on a
+    // grid of positions (a step touches only 2W of them): median(χ²₁) = 0.4549.
+    let mut d2: Vec<f64> = (w..=n - w).step_by((w / 4).max(1)).map(|i| contrast(i).powi(2)).collect();
+    d2.sort_by(f64::total_cmp);
+    let typical = d2.get(d2.len() / 2).copied().unwrap_or(0.0) / 0.4549;
+    let strength = if typical > 0.0 { best_d * best_d / typical } else { 0.0 };
+    (best_i, best_d, strength)
+}
+
+/// A span where the white level is higher than elsewhere.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Burst {
+    /// First sample inside.
+    pub start: usize,
+    /// First sample after.
+    pub end: usize,
+    /// Ratio of white standard deviations inside / outside.
+    pub factor: f64,
+    /// Log-likelihood ratio against "no burst".
+    pub strength: f64,
+}
+
+/// Finds the one span whose white-noise level differs most, by a Gaussian likelihood ratio on
+/// per-block variances of first differences (slow effects cancel in the differences).
+///
+/// # Formula
+/// ```text
+/// vₖ = Σ_{block k} (y[i+1] − y[i])² / 2        (b samples per block)
+/// LLR(s, e) = ½·[n·ln(V/n) − n_in·ln(V_in/n_in) − n_out·ln(V_out/n_out)]
+/// ```
+/// maximised over block spans [s, e), where V sums vₖ and n counts differences.
+pub fn find_burst(y: &[f64], tau0: f64) -> Burst {
+    let b = block_len(tau0);
+    let nb = y.len() / b;
+    let none = Burst { start: 0, end: 0, factor: 1.0, strength: 0.0 };
+    if nb < 4 {
+        return none;
+    }
+    let mut v = Vec::with_capacity(nb);
+    let mut c = Vec::with_capacity(nb);
+    for k in 0..nb {
+        let blk = &y[k * b..((k + 1) * b + 1).min(y.len())];
+        let (s, n) = blk
+            .windows(2)
+            .filter(|p| p[0].is_finite() && p[1].is_finite())
+            .fold((0.0, 0usize), |(s, n), p| (s + 0.5 * (p[1] - p[0]).powi(2), n + 1));
+        v.push(s);
+        c.push(n as f64);
+    }
+    let pv: Vec<f64> = std::iter::once(0.0).chain(v.iter().scan(0.0, |a, x| { *a += x; Some(*a) })).collect();
+    let pc: Vec<f64> = std::iter::once(0.0).chain(c.iter().scan(0.0, |a, x| { *a += x; Some(*a) })).collect();
+    let (vt, ct) = (pv[nb], pc[nb]);
+    if vt <= 0.0 || ct <= 0.0 {
+        return none;
+    }
+    let ll = |v: f64, n: f64| if n > 0.0 && v > 0.0 { n * (v / n).ln() } else { 0.0 };
+    let total = ll(vt, ct);
+    let mut best = none;
+    for s in 0..nb {
+        for e in s + 1..=nb {
+            if e - s == nb {
+                continue;
+            }
+            let (vi, ci) = (pv[e] - pv[s], pc[e] - pc[s]);
+            let (vo, co) = (vt - vi, ct - ci);
+            let llr = 0.5 * (total - ll(vi, ci) - ll(vo, co));
+            if llr > best.strength && ci > 0.0 && co > 0.0 {
+                let factor = ((vi / ci) / (vo / co)).sqrt();
+                best = Burst { start: s * b, end: e * b, factor, strength: llr };
+            }
+        }
+    }
+    best
+}
+
+/// Scales the fast part of `span` down by `factor` around a 30 s moving mean (the slow part).
+fn shrink_white(span: &mut [f64], factor: f64, block: usize) {
+    if factor <= 1.0 || span.is_empty() {
+        return;
+    }
+    let half = (15 * block).max(1);
+    let mut prefix = Vec::with_capacity(span.len() + 1);
+    let mut acc = 0.0;
+    prefix.push(0.0);
+    for &v in span.iter() {
+        acc += if v.is_finite() { v } else { 0.0 };
+        prefix.push(acc);
+    }
+    let n = span.len();
+    for (i, y) in span.iter_mut().enumerate() {
+        let (lo, hi) = (i.saturating_sub(half), (i + half + 1).min(n));
+        let mean = (prefix[hi] - prefix[lo]) / (hi - lo) as f64;
+        *y = mean + (*y - mean) / factor;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::{Distribution, StandardNormal};
+
+    fn noise(n: usize, seed: u64) -> Vec<f64> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        (0..n).map(|_| StandardNormal.sample(&mut rng)).collect()
+    }
+
+    #[test]
+    fn step_is_located_and_sized() {
+        let mut y = noise(60_000, 1);
+        y.iter_mut().skip(21_000).for_each(|v| *v += 0.3);
+        let (i, size, strength) = find_step(&y);
+        assert!((i as i64 - 21_000).abs() < 300, "{i}");
+        // D's white-noise sd is √(2/W) = 0.032 with W = 2000.
+        assert!((size - 0.3).abs() < 4.0 * (2.0f64 / 2000.0).sqrt(), "{size}");
+        assert!(strength > 50.0);
+    }
+
+    #[test]
+    fn burst_is_located_and_sized() {
+        let mut y = noise(100 * 1200, 2);
+        let extra = noise(100 * 1200, 3);
+        for i in 30_000..50_000 {
+            y[i] += extra[i] * (9.0f64 - 1.0).sqrt();
+        }
+        let b = find_burst(&y, 0.01);
+        assert!((b.start as i64 - 30_000).abs() <= 100 && (b.end as i64 - 50_000).abs() <= 100, "{b:?}");
+        assert!((b.factor - 3.0).abs() < 0.1, "{b:?}");
+    }
+
+    #[test]
+    fn regression_recovers_slope_with_honest_error() {
+        let x: Vec<f64> = (0..5000).map(|i| (i as f64 * 0.01).sin()).collect();
+        let e = noise(5000, 4);
+        let y: Vec<f64> = x.iter().zip(&e).map(|(a, b)| 2.0 * a + b).collect();
+        let (c, se, _) = regress(&y, &x);
+        assert!((c - 2.0).abs() < 4.0 * se, "{c} ± {se}");
+        assert!(se > 0.01 && se < 0.05);
+    }
+}

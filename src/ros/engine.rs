@@ -1,0 +1,163 @@
+//! The node's F-DAVAR engine: the same [`Pipeline`] `fdavar davar` runs offline, behind
+//! [`RowEngine`], its rows turned into `fdavar_msgs/AxisState`.
+//!
+//! Why the offline pipeline and not a node-specific one: the same input sequence must give the same
+//! rows live and offline (DESIGN §7). A live change of a DAVAR parameter rebuilds the pipeline from
+//! the new configuration: rows restart half a window later, on the new settings.
+
+use super::monitor::{Change, RowEngine};
+use crate::allan::AllanPoint;
+use crate::model::effects::{EffectKind, REGISTRY};
+use crate::model::ModelSpec;
+use crate::msgs::builtin_interfaces::Time;
+use crate::msgs::fdavar_msgs::{AxisState, Coefficient, DavarPoint, TauInterval};
+use crate::msgs::std_msgs::Header;
+use crate::pipeline::{AxisRow, DavarConfig, Output, Pipeline, PipelineError};
+use crate::signal::{Axis, ImuSample};
+
+/// [`Pipeline`] as a [`RowEngine`].
+pub struct PipelineEngine {
+    pipeline: Pipeline,
+    out: Output,
+    /// The spectral effects of the model in force (fitted per published row).
+    model: Vec<&'static dyn EffectKind>,
+}
+
+impl std::fmt::Debug for PipelineEngine {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let model: Vec<&str> = self.model.iter().map(|k| k.id()).collect();
+        f.debug_struct("PipelineEngine")
+            .field("pipeline", &self.pipeline)
+            .field("model", &model)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Weight iterations of the per-row fit (EDF recomputed from the model's noise mix).
+const FIT_ITERATIONS: usize = 3;
+
+/// The effect kinds of a model spec.
+///
+/// # Errors
+/// The spec's parse error (unknown effect, empty name).
+pub fn model_kinds(spec: &str) -> Result<Vec<&'static dyn EffectKind>, String> {
+    let spec = ModelSpec::parse(spec).map_err(|e| e.to_string())?;
+    spec.kinds(REGISTRY).map_err(|e| e.to_string())
+}
+
+impl PipelineEngine {
+    /// An engine over all six axes.
+    ///
+    /// # Errors
+    /// [`PipelineError`] when the configuration cannot run live (e.g. `sigma_ref.mode: record`,
+    /// which needs the whole recording).
+    pub fn new(
+        config: DavarConfig,
+        model: Vec<&'static dyn EffectKind>,
+    ) -> Result<PipelineEngine, PipelineError> {
+        Ok(PipelineEngine {
+            pipeline: Pipeline::new(config, &Axis::ALL, None)?,
+            out: Output::default(),
+            model,
+        })
+    }
+}
+
+/// An [`AxisRow`] as the message `~/<axis>/state` carries it (model fields left for the fitter).
+pub fn axis_state(row: &AxisRow, tau0: f64) -> AxisState {
+    let r = &row.row;
+    AxisState {
+        header: Header {
+            stamp: Time::from_ns(row.stamp_ns).unwrap_or_default(),
+            frame_id: String::new(),
+        },
+        axis: row.axis.name().to_string(),
+        analysis_time_s: row.time_s,
+        window_length: u32::try_from(r.window).unwrap_or(u32::MAX),
+        f_value: r.f.unwrap_or(f64::NAN),
+        f_reference: r.f_target.unwrap_or(f64::NAN),
+        sample_period_s: tau0,
+        row: r
+            .points
+            .iter()
+            .map(|p| DavarPoint {
+                tau_s: p.tau,
+                avar: p.avar,
+                avar_low: p.ci_low,
+                avar_high: p.ci_high,
+                edf: p.edf,
+            })
+            .collect(),
+        fit_error: f64::NAN,
+        ..AxisState::default()
+    }
+}
+
+impl RowEngine for PipelineEngine {
+    fn push(&mut self, sample: &ImuSample) -> Vec<(Axis, AxisState)> {
+        self.out.rows.clear();
+        self.out.events.clear();
+        self.pipeline.push(sample, &mut self.out);
+        let tau0 = self.pipeline.tau0().unwrap_or(f64::NAN);
+        self.out
+            .rows
+            .iter()
+            .map(|row| (row.axis, axis_state(row, tau0)))
+            .collect()
+    }
+
+    fn reconfigure(&mut self, change: Change) -> Result<(), String> {
+        match change {
+            Change::Davar(config) => {
+                self.pipeline =
+                    Pipeline::new(*config, &Axis::ALL, None).map_err(|e| e.to_string())?;
+                Ok(())
+            }
+            Change::Model(spec) => {
+                self.model = model_kinds(&spec)?;
+                Ok(())
+            }
+        }
+    }
+
+    fn fit(&self, state: &mut AxisState) {
+        let points: Vec<AllanPoint> = state
+            .row
+            .iter()
+            .map(|p| AllanPoint {
+                m: (p.tau_s / state.sample_period_s).round() as usize,
+                tau: p.tau_s,
+                avar: p.avar,
+                terms: 0,
+                edf: p.edf,
+                ci_low: p.avar_low,
+                ci_high: p.avar_high,
+            })
+            .collect();
+        // Too few τ points or a degenerate row: the model fields stay empty (fit_error NaN).
+        let Ok(fit) = crate::model::fit_curve(&points, &self.model, FIT_ITERATIONS) else {
+            return;
+        };
+        state.fit_error = fit.fit_error;
+        state.failing_tau = fit
+            .failing_tau
+            .iter()
+            .map(|[low_s, high_s]| TauInterval {
+                low_s: *low_s,
+                high_s: *high_s,
+            })
+            .collect();
+        state.coefficients = fit
+            .terms
+            .iter()
+            .flat_map(|term| {
+                term.params.iter().map(|p| Coefficient {
+                    effect: term.effect.clone(),
+                    name: p.name.clone(),
+                    value: p.value,
+                    unit: p.unit.clone(),
+                })
+            })
+            .collect();
+    }
+}

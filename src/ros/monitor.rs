@@ -1,0 +1,603 @@
+//! The node's analysis state: input checks, counters, staleness, and the messages built from them.
+//!
+//! Why a type of its own, apart from the ROS plumbing: everything the node decides (what counts as a
+//! bad message, when the input is stale, which level each axis gets, what `/diagnostics` and
+//! `~/<axis>/state` carry) is a function of the samples pushed in and the time given, so it is
+//! tested without DDS. The ROS side only moves messages in and out.
+//!
+//! Samples reach the F-DAVAR engine through [`RowEngine`]; the monitor keeps the latest row of each
+//! axis and publishes it with the counters.
+
+use crate::msgs::builtin_interfaces::Time;
+use crate::msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue, Level};
+use crate::msgs::fdavar_msgs::AxisState;
+use crate::msgs::std_msgs::Header;
+use crate::signal::{Axis, ImuSample, PeriodEstimator, StampCheck, StampClass};
+
+/// The F-DAVAR engine as the node drives it: samples in, per-axis rows out.
+///
+/// Why a trait: the node owns the queue, the counters and the publishing; the engine (the same
+/// streaming pipeline `fdavar davar` runs offline) owns the maths. Rows carry their analysis time,
+/// which lags the newest sample by half a window.
+pub trait RowEngine: Send {
+    /// Feeds one checked sample (finite values, stamps strictly increasing); returns the rows that
+    /// became complete, as (axis, state with the analysis fields filled).
+    fn push(&mut self, sample: &ImuSample) -> Vec<(Axis, AxisState)>;
+    /// Applies a live parameter change (model, window settings).
+    ///
+    /// # Errors
+    /// A reason when the engine cannot take the value (the node then keeps the old one).
+    fn reconfigure(&mut self, change: Change) -> Result<(), String>;
+
+    /// Fills the model fields of a row about to be published (coefficients, fit_error,
+    /// failing_tau). Called at the publishing rate on the latest row of each axis, not per row:
+    /// a fit costs far more than a row.
+    fn fit(&self, _state: &mut AxisState) {}
+}
+
+/// A live change for the engine.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Change {
+    /// New DAVAR settings (window policy, F̃, σ²_ref, τ grid, …), already validated.
+    Davar(Box<crate::pipeline::DavarConfig>),
+    /// A new model spec (comma-separated effects).
+    Model(String),
+}
+
+/// The kinds of bad input the node meets; each is logged once and counted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum BadInput {
+    /// A NaN or infinite value on some axis.
+    NonFinite,
+    /// A stamp earlier than the previous one.
+    Backwards,
+    /// The same stamp as the previous one.
+    Duplicate,
+    /// A zero stamp in a stream whose stamps are not zero (dropped).
+    ZeroStamp,
+    /// An interval longer than 1.5 τ0.
+    Gap,
+    /// The measured rate moved more than 20 % from the nominal one.
+    RateChange,
+    /// The analysis queue was full: samples dropped.
+    QueueFull,
+}
+
+impl BadInput {
+    /// A sentence for the log.
+    pub fn describe(self) -> &'static str {
+        match self {
+            BadInput::NonFinite => "NaN/Inf value in an IMU message: that axis's sample is dropped",
+            BadInput::Backwards => "IMU stamp went backwards: sample dropped",
+            BadInput::Duplicate => "duplicate IMU stamp: sample dropped",
+            BadInput::ZeroStamp => "zero IMU header stamp in a stamped stream: sample dropped",
+            BadInput::Gap => {
+                "gap in IMU stamps (> 1.5 periods): Allan terms across it are left out"
+            }
+            BadInput::RateChange => "IMU rate changed by more than 20 % from the nominal rate",
+            BadInput::QueueFull => {
+                "analysis queue full: IMU samples dropped (input faster than analysis)"
+            }
+        }
+    }
+}
+
+/// Counts since start, published as-is.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// Messages received (before checks).
+    pub received: u64,
+    /// Samples passed to the engine.
+    pub samples: u64,
+    /// Samples dropped because the queue was full (counted by the receiver).
+    pub drops: u64,
+    /// Gaps in the stamps.
+    pub gaps: u64,
+    /// Duplicated stamps (dropped).
+    pub duplicates: u64,
+    /// Stamps going backwards (dropped).
+    pub backwards: u64,
+    /// Zero stamps (receive time used).
+    pub zero_stamps: u64,
+    /// Non-finite values, per axis in [`Axis::ALL`] order.
+    pub non_finite: [u64; 6],
+    /// Rate changes seen.
+    pub rate_changes: u64,
+}
+
+/// Settings of the monitor that the node's parameters set.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MonitorSettings {
+    /// No IMU for longer than this (seconds of node time) means stale input: ERROR.
+    pub stale_timeout_s: f64,
+    /// fit_error above this is a failing model: WARN.
+    pub fit_error_warn: f64,
+}
+
+impl Default for MonitorSettings {
+    fn default() -> Self {
+        MonitorSettings {
+            stale_timeout_s: 1.0,
+            fit_error_warn: 3.0,
+        }
+    }
+}
+
+/// The node's analysis state (see the module doc).
+pub struct Monitor {
+    settings: MonitorSettings,
+    engine: Option<Box<dyn RowEngine>>,
+    period: PeriodEstimator,
+    check: Option<StampCheck>,
+    last_good_ns: Option<i64>,
+    first_stamp_ns: Option<i64>,
+    counters: Counters,
+    /// Kinds already logged (each is logged once).
+    logged: std::collections::BTreeSet<BadInput>,
+    /// Node time of the last message received, ns.
+    last_receive_ns: Option<i64>,
+    /// Stamps in the current rate window: (first, last, count).
+    rate_window: Option<(i64, i64, u64)>,
+    rate_hz: Option<f64>,
+    latest: [Option<AxisState>; 6],
+    frame_id: String,
+    /// Bad inputs since the last publish, per axis, for the level.
+    recent_non_finite: [u64; 6],
+    /// True when the stream's stamps are zero and the receive time stands in (set by the first
+    /// message).
+    receive_time_stamps: Option<bool>,
+    /// Rows kept for [`Monitor::drain_rows`] when recording is on.
+    new_rows: Option<Vec<AxisState>>,
+}
+
+impl Monitor {
+    /// A monitor feeding `engine` (None: counters and input checks only, no rows).
+    pub fn new(settings: MonitorSettings, engine: Option<Box<dyn RowEngine>>) -> Monitor {
+        Monitor {
+            settings,
+            engine,
+            period: PeriodEstimator::new(50),
+            check: None,
+            last_good_ns: None,
+            first_stamp_ns: None,
+            counters: Counters::default(),
+            logged: Default::default(),
+            last_receive_ns: None,
+            rate_window: None,
+            rate_hz: None,
+            latest: Default::default(),
+            frame_id: String::new(),
+            recent_non_finite: [0; 6],
+            new_rows: None,
+            receive_time_stamps: None,
+        }
+    }
+
+    /// Keeps every new row for [`Monitor::drain_rows`] (the node's `dump_json`).
+    pub fn record_rows(&mut self) {
+        self.new_rows.get_or_insert_with(Vec::new);
+    }
+
+    /// The rows completed since the last call (empty unless [`Monitor::record_rows`] was called).
+    pub fn drain_rows(&mut self) -> Vec<AxisState> {
+        self.new_rows
+            .as_mut()
+            .map(std::mem::take)
+            .unwrap_or_default()
+    }
+
+    /// Changes the settings (live parameters).
+    pub fn set_settings(&mut self, settings: MonitorSettings) {
+        self.settings = settings;
+    }
+
+    /// Passes a live parameter change to the engine.
+    ///
+    /// # Errors
+    /// The engine's reason, or that no engine runs.
+    pub fn reconfigure(&mut self, change: Change) -> Result<(), String> {
+        match self.engine.as_mut() {
+            Some(e) => e.reconfigure(change),
+            None => Err("no F-DAVAR engine in this build".to_string()),
+        }
+    }
+
+    /// The counters so far.
+    pub fn counters(&self) -> Counters {
+        self.counters
+    }
+
+    /// Records samples the receiver dropped because the queue was full; returns a line to log the
+    /// first time.
+    pub fn add_drops(&mut self, n: u64) -> Option<&'static str> {
+        if n == 0 {
+            return None;
+        }
+        self.counters.drops += n;
+        self.note(BadInput::QueueFull)
+    }
+
+    fn note(&mut self, kind: BadInput) -> Option<&'static str> {
+        self.logged.insert(kind).then(|| kind.describe())
+    }
+
+    /// Checks one received IMU sample and feeds the engine; returns the lines to log (each kind once).
+    ///
+    /// `receive_ns` is the node time at reception (used when the stamp is zero, and for staleness).
+    pub fn push(
+        &mut self,
+        mut sample: ImuSample,
+        frame_id: &str,
+        receive_ns: i64,
+    ) -> Vec<&'static str> {
+        let mut log = Vec::new();
+        self.counters.received += 1;
+        self.last_receive_ns = Some(receive_ns);
+        if self.frame_id != frame_id {
+            self.frame_id = frame_id.to_string();
+        }
+        // The clock of the stream is chosen by its first message: the sensor's stamps, or the
+        // receive time when the driver leaves stamps zero (DESIGN §1). A zero stamp inside a
+        // stamped stream cannot be placed on the sensor clock: it is dropped and counted.
+        let by_receive_time = *self.receive_time_stamps.get_or_insert(sample.stamp_ns == 0);
+        if by_receive_time {
+            sample.stamp_ns = receive_ns;
+        } else if sample.stamp_ns == 0 {
+            self.counters.zero_stamps += 1;
+            log.extend(self.note(BadInput::ZeroStamp));
+            return log;
+        }
+        let values = sample.values();
+        if values.iter().any(|v| !v.is_finite()) {
+            for (i, v) in values.iter().enumerate() {
+                if !v.is_finite() {
+                    self.counters.non_finite[i] += 1;
+                    self.recent_non_finite[i] += 1;
+                }
+            }
+            log.extend(self.note(BadInput::NonFinite));
+            // The engine takes whole samples: a sample with a bad axis is left out on every axis,
+            // so that all six axes keep one time base. Counted per axis.
+            return log;
+        }
+        if let Some(last) = self.last_good_ns {
+            if sample.stamp_ns == last {
+                self.counters.duplicates += 1;
+                log.extend(self.note(BadInput::Duplicate));
+                return log;
+            }
+            if sample.stamp_ns < last {
+                self.counters.backwards += 1;
+                log.extend(self.note(BadInput::Backwards));
+                return log;
+            }
+        }
+        let period = self.period.push(sample.stamp_ns);
+        if let (None, Some(p)) = (&self.check, period) {
+            let mut check = StampCheck::new(p);
+            if let Some(last) = self.last_good_ns {
+                check.check(last);
+            }
+            self.check = Some(check);
+        }
+        if let Some(check) = self.check.as_mut() {
+            if let StampClass::Gap { .. } = check.check(sample.stamp_ns) {
+                self.counters.gaps += 1;
+                log.extend(self.note(BadInput::Gap));
+            }
+        }
+        self.last_good_ns = Some(sample.stamp_ns);
+        self.first_stamp_ns.get_or_insert(sample.stamp_ns);
+        self.rate_window = Some(match self.rate_window {
+            None => (sample.stamp_ns, sample.stamp_ns, 1),
+            Some((first, _, n)) => (first, sample.stamp_ns, n + 1),
+        });
+        self.counters.samples += 1;
+        if let Some(engine) = self.engine.as_mut() {
+            for (axis, mut state) in engine.push(&sample) {
+                state.header.frame_id.clone_from(&self.frame_id);
+                if let Some(rows) = self.new_rows.as_mut() {
+                    rows.push(state.clone());
+                }
+                self.latest[axis.index()] = Some(state);
+            }
+        }
+        log
+    }
+
+    /// Closes the current rate window: updates `rate_hz` and detects a rate change.
+    fn close_rate_window(&mut self) -> Option<&'static str> {
+        let (first, last, n) = self.rate_window.take()?;
+        if n < 3 || last <= first {
+            return None;
+        }
+        let rate = (n - 1) as f64 / ((last - first) as f64 * 1e-9);
+        self.rate_hz = Some(rate);
+        let nominal = 1.0 / self.check.as_ref()?.period_s();
+        if (rate / nominal - 1.0).abs() > 0.2 {
+            self.counters.rate_changes += 1;
+            return self.note(BadInput::RateChange);
+        }
+        None
+    }
+
+    /// Builds `/diagnostics` and the latest `~/<axis>/state` messages at node time `now_ns`.
+    ///
+    /// Also returns a line to log when the rate changed.
+    pub fn report(
+        &mut self,
+        now_ns: i64,
+    ) -> (DiagnosticArray, Vec<AxisState>, Option<&'static str>) {
+        let log = self.close_rate_window();
+        let stale = match self.last_receive_ns {
+            None => Some("no IMU message received yet".to_string()),
+            Some(t) if (now_ns - t) as f64 * 1e-9 > self.settings.stale_timeout_s => Some(format!(
+                "stale input: no IMU message for {:.1} s (> stale_timeout_s {})",
+                (now_ns - t) as f64 * 1e-9,
+                self.settings.stale_timeout_s
+            )),
+            Some(_) => None,
+        };
+        let c = self.counters;
+        let mut status = Vec::with_capacity(6);
+        let mut states = Vec::new();
+        for axis in Axis::ALL {
+            let i = axis.index();
+            // The model is fitted here, on the row about to be published.
+            let fitted = self.latest[i].as_ref().map(|s| {
+                let mut s = s.clone();
+                if let Some(engine) = &self.engine {
+                    engine.fit(&mut s);
+                }
+                s
+            });
+            let latest = fitted.as_ref();
+            let mut values = vec![
+                KeyValue::new("samples", c.samples),
+                KeyValue::new("drops", c.drops),
+                KeyValue::new("gaps", c.gaps),
+                KeyValue::new("duplicates", c.duplicates),
+                KeyValue::new("backwards", c.backwards),
+                KeyValue::new("non_finite", c.non_finite[i]),
+                KeyValue::new("zero_stamps", c.zero_stamps),
+                KeyValue::new("rate_changes", c.rate_changes),
+                KeyValue::new(
+                    "rate_hz",
+                    self.rate_hz.map_or("".to_string(), |r| format!("{r:.3}")),
+                ),
+            ];
+            let (level, message) = if let Some(why) = &stale {
+                (Level::Error, why.clone())
+            } else if self.recent_non_finite[i] > 0 && self.latest[i].is_none() {
+                (
+                    Level::Error,
+                    "broken input: non-finite values on this axis".to_string(),
+                )
+            } else if let Some(s) = latest {
+                values.extend([
+                    KeyValue::new("window_length", s.window_length),
+                    KeyValue::new("f_value", s.f_value),
+                    KeyValue::new("f_reference", s.f_reference),
+                    KeyValue::new("fit_error", s.fit_error),
+                    KeyValue::new("analysis_time_s", s.analysis_time_s),
+                ]);
+                for coef in &s.coefficients {
+                    values.push(KeyValue::new(
+                        &format!("{}.{} [{}]", coef.effect, coef.name, coef.unit),
+                        coef.value,
+                    ));
+                }
+                let suggestions: Vec<&str> =
+                    s.suggestions.iter().map(|x| x.effect.as_str()).collect();
+                values.push(KeyValue::new("suggestions", suggestions.join(",")));
+                if s.fit_error > self.settings.fit_error_warn {
+                    (
+                        Level::Warn,
+                        format!(
+                            "model fails: fit_error {:.2}; suggestions: [{}]",
+                            s.fit_error,
+                            suggestions.join(", ")
+                        ),
+                    )
+                } else if s.f_reference.is_finite() && s.f_value > 3.0 * s.f_reference {
+                    (
+                        Level::Warn,
+                        format!(
+                            "noise changed: F {:.2} > 3 F̃ ({:.2})",
+                            s.f_value, s.f_reference
+                        ),
+                    )
+                } else if self.recent_non_finite[i] > 0 {
+                    (
+                        Level::Warn,
+                        "non-finite values on this axis were dropped".to_string(),
+                    )
+                } else {
+                    (Level::Ok, "ok".to_string())
+                }
+            } else {
+                (
+                    Level::Ok,
+                    "collecting samples (no analysis row yet)".to_string(),
+                )
+            };
+            status.push(DiagnosticStatus {
+                level: level as u8,
+                name: format!("fdavar: {axis}"),
+                message,
+                hardware_id: self.frame_id.clone(),
+                values,
+            });
+            if let Some(mut s) = fitted {
+                s.samples = c.samples;
+                s.drops = c.drops;
+                s.gaps = c.gaps;
+                states.push(s);
+            }
+        }
+        self.recent_non_finite = [0; 6];
+        let array = DiagnosticArray {
+            header: Header {
+                // A node time past 2038 cannot be a ROS Time: publish zero rather than fail.
+                stamp: Time::from_ns(now_ns).unwrap_or_default(),
+                frame_id: String::new(),
+            },
+            status,
+        };
+        (array, states, log)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MS: i64 = 1_000_000;
+
+    fn sample(stamp_ns: i64, v: f64) -> ImuSample {
+        ImuSample {
+            stamp_ns,
+            gyro: [v, 0.0, 0.0],
+            accel: [0.0, 0.0, 9.81],
+        }
+    }
+
+    fn level(array: &DiagnosticArray, axis: usize) -> u8 {
+        array.status[axis].level
+    }
+
+    fn value<'a>(array: &'a DiagnosticArray, axis: usize, key: &str) -> &'a str {
+        &array.status[axis]
+            .values
+            .iter()
+            .find(|kv| kv.key == key)
+            .unwrap()
+            .value
+    }
+
+    /// One engine row per sample, so that the tests see what reaches the engine.
+    struct Echo;
+    impl RowEngine for Echo {
+        fn push(&mut self, s: &ImuSample) -> Vec<(Axis, AxisState)> {
+            let state = AxisState {
+                axis: "gyro_x".into(),
+                analysis_time_s: s.stamp_ns as f64 * 1e-9,
+                window_length: 171,
+                f_value: 1.0,
+                f_reference: 1.0,
+                fit_error: 1.0,
+                ..AxisState::default()
+            };
+            vec![(Axis::GyroX, state)]
+        }
+        fn reconfigure(&mut self, _: Change) -> Result<(), String> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn each_bad_input_kind_is_counted_and_logged_once() {
+        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(Echo)));
+        m.record_rows();
+        let mut logged = Vec::new();
+        let mut t = 0;
+        for _ in 0..100 {
+            t += 10 * MS;
+            logged.extend(m.push(sample(t, 0.1), "imu", t));
+        }
+        assert!(logged.is_empty(), "{logged:?}");
+        for _ in 0..2 {
+            logged.extend(m.push(sample(t + 5 * MS, f64::NAN), "imu", t)); // non-finite
+            logged.extend(m.push(sample(t, 0.1), "imu", t)); // duplicate
+            logged.extend(m.push(sample(t - 50 * MS, 0.1), "imu", t)); // backwards
+            logged.extend(m.push(sample(0, 0.1), "imu", t + 10 * MS)); // zero stamp: dropped
+            t += 10 * MS;
+            t += 100 * MS; // gap
+            logged.extend(m.push(sample(t, 0.1), "imu", t));
+        }
+        let c = m.counters();
+        assert_eq!(c.non_finite[0], 2);
+        assert_eq!(c.duplicates, 2);
+        assert_eq!(c.backwards, 2);
+        assert_eq!(c.zero_stamps, 2);
+        assert_eq!(c.gaps, 2);
+        assert_eq!(logged.len(), 5, "each kind once: {logged:?}");
+        // Only good samples reached the engine: 100 + 2 after gaps.
+        assert_eq!(c.samples, 102);
+        assert_eq!(m.drain_rows().len(), 102);
+        assert!(m.drain_rows().is_empty());
+    }
+
+    #[test]
+    fn a_stream_of_zero_stamps_runs_on_the_receive_time() {
+        let mut m = Monitor::new(MonitorSettings::default(), None);
+        for k in 1..=100 {
+            assert!(m.push(sample(0, 0.0), "imu", k * 10 * MS).is_empty());
+        }
+        let c = m.counters();
+        assert_eq!((c.samples, c.zero_stamps, c.duplicates), (100, 0, 0));
+    }
+
+    #[test]
+    fn silence_turns_every_axis_error_and_data_clears_it() {
+        let mut m = Monitor::new(MonitorSettings::default(), None);
+        let (a, _, _) = m.report(0);
+        assert!((0..6).all(|i| level(&a, i) == Level::Error as u8));
+        let mut t = 0;
+        for _ in 0..200 {
+            t += 5 * MS;
+            m.push(sample(t, 0.0), "imu_link", t);
+        }
+        let (a, states, _) = m.report(t + 100 * MS);
+        assert!((0..6).all(|i| level(&a, i) == Level::Ok as u8), "{a:?}");
+        assert!(states.is_empty(), "no engine, no rows");
+        assert_eq!(a.status[3].name, "fdavar: accel_x");
+        assert_eq!(a.status[0].hardware_id, "imu_link");
+        assert_eq!(value(&a, 0, "rate_hz"), "200.000");
+        assert_eq!(value(&a, 0, "samples"), "200");
+        let (a, _, _) = m.report(t + 1_500 * MS);
+        assert_eq!(level(&a, 0), Level::Error as u8);
+        assert!(
+            a.status[0].message.contains("stale"),
+            "{}",
+            a.status[0].message
+        );
+    }
+
+    #[test]
+    fn drops_and_rate_changes_are_counted() {
+        let mut m = Monitor::new(MonitorSettings::default(), None);
+        let mut t = 0;
+        for _ in 0..100 {
+            t += 10 * MS;
+            m.push(sample(t, 0.0), "imu", t);
+        }
+        m.report(t);
+        assert!(m.add_drops(5).is_some());
+        assert!(m.add_drops(5).is_none(), "logged once");
+        for _ in 0..100 {
+            t += MS; // 10× faster
+            m.push(sample(t, 0.0), "imu", t);
+        }
+        let (a, _, line) = m.report(t);
+        assert!(line.is_some());
+        assert_eq!(value(&a, 0, "drops"), "10");
+        assert_eq!(value(&a, 0, "rate_changes"), "1");
+    }
+
+    #[test]
+    fn rows_carry_the_counters_and_set_the_level() {
+        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(Echo)));
+        let mut t = 0;
+        for _ in 0..10 {
+            t += 10 * MS;
+            m.push(sample(t, 0.0), "imu", t);
+        }
+        let (a, states, _) = m.report(t);
+        assert_eq!(states.len(), 1);
+        assert_eq!(states[0].samples, 10);
+        assert_eq!(states[0].header.frame_id, "imu");
+        assert_eq!(value(&a, 0, "window_length"), "171");
+        assert_eq!(level(&a, 0), Level::Ok as u8);
+    }
+}

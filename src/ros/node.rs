@@ -1,0 +1,808 @@
+//! The ROS 2 plumbing of `fdavar_node`: context, node, parameters, subscriptions, the analysis thread,
+//! publishers.
+//!
+//! Data flow: the receive loop (the thread that calls [`run`]) takes `imu` messages off DDS and
+//! `try_send`s them into a bounded queue; a full queue drops the sample and counts it, so the
+//! subscription never blocks and memory never grows. The analysis thread owns the [`Monitor`]
+//! (checks, counters, the F-DAVAR engine) and the publishers, and publishes `/diagnostics` and
+//! `~/<axis>/state` at `publish_rate_hz`. Parameter changes arrive from ros2-client's parameter
+//! services on a channel and apply between two samples.
+
+use super::args::RosArgs;
+use super::monitor::{Change, Monitor, MonitorSettings, RowEngine};
+use super::names::{check_node_name, normalise_namespace, resolve, NameError};
+use super::params::{self, ParamError, NODE_PARAMS};
+use crate::msgs::diagnostic_msgs::{DiagnosticArray, KeyValue};
+use crate::msgs::fdavar_msgs::AxisState;
+use crate::msgs::rosgraph_msgs::Clock;
+use crate::msgs::sensor_msgs::{Imu, Temperature};
+use crate::msgs::RosMessage;
+use crate::signal::ImuSample;
+use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
+use ros2_client::qos::{History, Reliability, WhenFull};
+use ros2_client::{
+    Context, ContextOptions, MessageTypeName, Name, Node, NodeName, NodeOptions, ParameterValue,
+    Publisher, QosProfile, Subscription,
+};
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::sync::atomic::{AtomicBool, AtomicI64, AtomicU64, Ordering};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, SyncSender, TrySendError};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// Why the node could not start (a startup configuration error: exit non-zero).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum NodeError {
+    /// `--ros-args` was malformed.
+    #[error(transparent)]
+    Args(#[from] super::args::ArgsError),
+    /// A node, namespace or topic name is invalid.
+    #[error(transparent)]
+    Name(#[from] NameError),
+    /// A parameter value was refused.
+    #[error(transparent)]
+    Param(#[from] ParamError),
+    /// `ROS_DOMAIN_ID` is not a number in 0..=232.
+    #[error("ROS_DOMAIN_ID='{0}' is not a domain id (0..=232)")]
+    DomainId(String),
+    /// ros2-client / DDS refused to create an entity.
+    #[error("ROS 2 ({what}): {reason}")]
+    Ros {
+        /// What was being created.
+        what: String,
+        /// The client's error.
+        reason: String,
+    },
+    /// The dump file could not be opened.
+    #[error("dump_json {path}: {source}")]
+    Dump {
+        /// The path.
+        path: String,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+}
+
+fn ros_err(what: impl Into<String>) -> impl FnOnce(String) -> NodeError {
+    let what = what.into();
+    move |reason| NodeError::Ros { what, reason }
+}
+
+/// Everything the node needs to start, read from `--ros-args` and the environment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NodeConfig {
+    /// Absolute namespace (`/` for the root).
+    pub namespace: String,
+    /// Node base name (`fdavar` unless `__node:=` says otherwise).
+    pub name: String,
+    /// Remaps from `-r from:=to`.
+    pub remaps: Vec<(String, String)>,
+    /// The node's own parameter values (defaults, files, `-p`), validated.
+    pub params: BTreeMap<String, ParameterValue>,
+    /// The DAVAR parameter values (same table as `fdavar davar --params`), validated.
+    pub davar: BTreeMap<String, crate::params::ParamValue>,
+    /// The DAVAR configuration they make.
+    pub davar_config: crate::pipeline::DavarConfig,
+    /// DDS domain (`ROS_DOMAIN_ID`, default 0).
+    pub domain_id: u16,
+    /// `--log-level`: `debug`, `info` (default), `warn`, `error`, `fatal`.
+    pub log_level: String,
+}
+
+impl NodeConfig {
+    /// Reads the configuration from `--ros-args` (program arguments are returned, untouched) and
+    /// `ROS_DOMAIN_ID` (given here so that tests need not set the environment).
+    ///
+    /// # Errors
+    /// [`NodeError`] for malformed arguments, invalid names or parameter values, a bad domain id.
+    pub fn from_args<I, S>(
+        args: I,
+        ros_domain_id: Option<&str>,
+    ) -> Result<(NodeConfig, Vec<String>), NodeError>
+    where
+        I: IntoIterator<Item = S>,
+        S: Into<String>,
+    {
+        let (ros, rest) = RosArgs::parse(args)?;
+        let namespace = normalise_namespace(ros.namespace.as_deref().unwrap_or("/"))?;
+        let name = ros
+            .node_name
+            .clone()
+            .unwrap_or_else(|| "fdavar".to_string());
+        check_node_name(&name)?;
+        let fqn = if namespace == "/" {
+            format!("/{name}")
+        } else {
+            format!("{namespace}/{name}")
+        };
+        let params = params::startup_values(&ros.params_files, &ros.params, &fqn)?;
+        let (davar, davar_config) = params::davar_startup(&ros.params_files, &ros.params)?;
+        let domain_id = match ros_domain_id.map(str::trim).filter(|s| !s.is_empty()) {
+            None => 0,
+            Some(s) => s
+                .parse::<u16>()
+                .ok()
+                .filter(|d| *d <= 232)
+                .ok_or_else(|| NodeError::DomainId(s.to_string()))?,
+        };
+        let config = NodeConfig {
+            namespace,
+            name,
+            remaps: ros.remaps,
+            params,
+            davar,
+            davar_config,
+            domain_id,
+            log_level: ros.log_level.unwrap_or_else(|| "info".to_string()),
+        };
+        // Resolve every name now, so that a bad remap is a startup error.
+        for topic in [
+            "imu",
+            "temperature",
+            "/clock",
+            "/diagnostics",
+            "~/gyro_x/state",
+        ] {
+            config.resolve(topic)?;
+        }
+        Ok((config, rest))
+    }
+
+    /// A topic name resolved by ROS rules (namespace, `~`, remaps); always absolute.
+    ///
+    /// # Errors
+    /// [`NameError`] for an invalid name or remap target.
+    pub fn resolve(&self, name: &str) -> Result<String, NameError> {
+        resolve(name, &self.namespace, &self.name, &self.remaps)
+    }
+
+    fn double(&self, name: &str) -> f64 {
+        match self.params.get(name) {
+            Some(ParameterValue::Double(x)) => *x,
+            _ => f64::NAN,
+        }
+    }
+
+    fn int(&self, name: &str) -> i64 {
+        match self.params.get(name) {
+            Some(ParameterValue::Integer(i)) => *i,
+            _ => 0,
+        }
+    }
+
+    fn flag(&self, name: &str) -> bool {
+        matches!(self.params.get(name), Some(ParameterValue::Boolean(true)))
+    }
+
+    fn text(&self, name: &str) -> String {
+        match self.params.get(name) {
+            Some(ParameterValue::String(s)) => s.clone(),
+            _ => String::new(),
+        }
+    }
+}
+
+/// A validated live parameter change, from the parameter services to the analysis thread.
+enum Control {
+    /// One of the node's own parameters.
+    Node(String, ParameterValue),
+    /// A DAVAR parameter: the whole new configuration.
+    Davar(String, Box<crate::pipeline::DavarConfig>),
+}
+
+/// What flows from the receive loop to the analysis thread.
+enum Input {
+    Imu {
+        sample: ImuSample,
+        frame_id: String,
+        receive_ns: i64,
+        /// When the receive loop took it off DDS (for the receive-to-update latency).
+        received: Instant,
+    },
+}
+
+/// Receive-to-update latencies of the most recent samples (a bounded ring).
+///
+/// Why in the node: whether the analysis keeps up with the IMU is a property of the running
+/// system; `/diagnostics` shows its median and 99th percentile.
+struct Latency {
+    ring: Vec<f64>,
+    next: usize,
+}
+
+impl Latency {
+    const CAPACITY: usize = 8192;
+
+    fn record(&mut self, seconds: f64) {
+        if self.ring.len() < Self::CAPACITY {
+            self.ring.push(seconds);
+        } else {
+            self.ring[self.next] = seconds;
+        }
+        self.next = (self.next + 1) % Self::CAPACITY;
+    }
+
+    /// (p50, p99) in milliseconds, if any sample was recorded.
+    fn percentiles_ms(&self) -> Option<(f64, f64)> {
+        if self.ring.is_empty() {
+            return None;
+        }
+        let mut sorted = self.ring.clone();
+        sorted.sort_by(f64::total_cmp);
+        let at = |q: f64| sorted[((sorted.len() - 1) as f64 * q).round() as usize] * 1e3;
+        Some((at(0.5), at(0.99)))
+    }
+}
+
+/// A logger honouring `--log-level`, writing ROS-style lines to stderr.
+#[derive(Debug, Clone)]
+struct Log {
+    name: String,
+    quiet_info: bool,
+}
+
+impl Log {
+    fn info(&self, msg: &str) {
+        if !self.quiet_info {
+            eprintln!("[INFO] [{}]: {msg}", self.name);
+        }
+    }
+    fn warn(&self, msg: &str) {
+        eprintln!("[WARN] [{}]: {msg}", self.name);
+    }
+}
+
+/// The node's clock: wall time, or the last `/clock` message when `use_sim_time` is true.
+#[derive(Debug, Clone)]
+struct NodeClock {
+    sim: Option<Arc<AtomicI64>>,
+}
+
+impl NodeClock {
+    fn now_ns(&self) -> i64 {
+        match &self.sim {
+            Some(t) => t.load(Ordering::Relaxed),
+            None => std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_nanos() as i64),
+        }
+    }
+}
+
+fn topic_type<M: RosMessage>() -> MessageTypeName {
+    MessageTypeName::new(M::DEF.package(), M::DEF.type_name())
+}
+
+fn status_qos(depth: usize) -> QosProfile {
+    QosProfile::publisher_default().history(History::KeepLast { depth })
+}
+
+/// Runs the node until the process is stopped (or `stop` becomes true).
+///
+/// `engine` is the F-DAVAR engine the analysis thread drives (`None`: input checks and counters
+/// only).
+///
+/// # Errors
+/// [`NodeError`] when a ROS entity cannot be created (startup); once running, bad input is logged
+/// and counted, never returned.
+pub fn run(
+    config: &NodeConfig,
+    engine: Option<Box<dyn RowEngine>>,
+    stop: Arc<AtomicBool>,
+) -> Result<(), NodeError> {
+    let log = Log {
+        name: config.name.clone(),
+        quiet_info: matches!(config.log_level.as_str(), "warn" | "error" | "fatal"),
+    };
+    let context = Context::with_options(ContextOptions::new().domain_id(config.domain_id))
+        .map_err(|e| ros_err("context")(format!("{e:?}")))?;
+
+    // Parameter changes travel from the spinner's set action to the analysis thread.
+    let (param_tx, param_rx) = mpsc::channel::<Control>();
+    let param_tx = std::sync::Mutex::new(param_tx);
+    // The DAVAR values in force: a change is validated together with the others.
+    let davar_now = Arc::new(std::sync::Mutex::new(config.davar.clone()));
+    let davar_check = Arc::clone(&davar_now);
+    // ros2-client also runs the validator and the set action on the declared (startup) values,
+    // which were checked when read (defaults are trusted): until the node exists, both accept.
+    let running = Arc::new(AtomicBool::new(false));
+    let (validating, setting) = (Arc::clone(&running), Arc::clone(&running));
+    let mut options = NodeOptions::new()
+        .enable_rosout(true)
+        .start_parameter_services(true)
+        .parameter_validator(Box::new(move |name, value| {
+            if !validating.load(Ordering::Acquire) {
+                return Ok(());
+            }
+            if params::is_davar(name) {
+                let current = davar_check
+                    .lock()
+                    .map_err(|_| "parameter lock poisoned".to_string())?;
+                return params::davar_change(&current, name, value).map(|_| ());
+            }
+            let spec = params::spec(name).ok_or_else(|| format!("unknown parameter '{name}'"))?;
+            if !spec.live {
+                return Err(format!(
+                    "'{name}' is read at startup only; restart the node to change it"
+                ));
+            }
+            params::validate(name, value)
+                .map(|_| ())
+                .map_err(|e| e.to_string())
+        }))
+        .parameter_set_action(Box::new(move |name, value| {
+            if !setting.load(Ordering::Acquire) {
+                return Ok(());
+            }
+            let control = if params::is_davar(name) {
+                let mut current = davar_now
+                    .lock()
+                    .map_err(|_| "parameter lock poisoned".to_string())?;
+                let (next, config) = params::davar_change(&current, name, value)?;
+                *current = next;
+                Control::Davar(name.to_string(), Box::new(config))
+            } else {
+                let value = params::validate(name, value).map_err(|e| e.to_string())?;
+                Control::Node(name.to_string(), value)
+            };
+            param_tx
+                .lock()
+                .map_err(|_| "parameter channel poisoned".to_string())?
+                .send(control)
+                .map_err(|_| "analysis thread stopped".to_string())
+        }));
+    for spec in NODE_PARAMS {
+        let value = config
+            .params
+            .get(spec.name)
+            .cloned()
+            .unwrap_or_else(spec.default);
+        options = options.declare_parameter(spec.name, value);
+    }
+    for (name, value) in &config.davar {
+        options = options.declare_parameter(name, params::ros_value(value));
+    }
+    let mut node = context
+        .new_node(
+            NodeName::new(&config.namespace, &config.name)
+                .map_err(|e| ros_err("node name")(format!("{e:?}")))?,
+            options,
+        )
+        .map_err(|e| ros_err("node")(format!("{e:?}")))?;
+    running.store(true, Ordering::Release);
+
+    let depth = usize::try_from(config.int("qos.depth")).unwrap_or(100);
+    let imu_qos = if config.flag("qos.reliable") {
+        QosProfile::subscription_default()
+            .reliability_reliable(WhenFull::DEFAULT)
+            .history(History::KeepLast { depth })
+    } else {
+        QosProfile::subscription_default()
+            .reliability(Reliability::BestEffort)
+            .history(History::KeepLast { depth })
+    };
+    let imu_name = config.resolve("imu")?;
+    let mut imu_sub: Subscription<Imu> =
+        subscribe(&mut node, &imu_name, topic_type::<Imu>(), &imu_qos)?;
+    let mut temp_sub: Option<Subscription<Temperature>> = if config.flag("temperature") {
+        let name = config.resolve("temperature")?;
+        Some(subscribe(
+            &mut node,
+            &name,
+            topic_type::<Temperature>(),
+            &imu_qos,
+        )?)
+    } else {
+        None
+    };
+    let sim_time = config
+        .flag("use_sim_time")
+        .then(|| Arc::new(AtomicI64::new(0)));
+    let mut clock_sub: Option<Subscription<Clock>> = match &sim_time {
+        Some(_) => {
+            let qos = QosProfile::subscription_default().history(History::KeepLast { depth: 1 });
+            Some(subscribe(
+                &mut node,
+                &config.resolve("/clock")?,
+                topic_type::<Clock>(),
+                &qos,
+            )?)
+        }
+        None => None,
+    };
+    let clock = NodeClock {
+        sim: sim_time.clone(),
+    };
+
+    let diag_pub: Publisher<DiagnosticArray> = publish(
+        &mut node,
+        &config.resolve("/diagnostics")?,
+        topic_type::<DiagnosticArray>(),
+        &status_qos(10),
+    )?;
+    let mut state_pubs = Vec::new();
+    for axis in crate::signal::Axis::ALL {
+        let name = config.resolve(&format!("~/{axis}/state"))?;
+        state_pubs.push(publish::<AxisState>(
+            &mut node,
+            &name,
+            topic_type::<AxisState>(),
+            &status_qos(10),
+        )?);
+    }
+
+    let dump_path = config.text("dump_json");
+    let dump = if dump_path.is_empty() {
+        None
+    } else {
+        Some(std::io::BufWriter::new(
+            std::fs::File::create(&dump_path).map_err(|source| NodeError::Dump {
+                path: dump_path.clone(),
+                source,
+            })?,
+        ))
+    };
+
+    let spinner = node
+        .spinner()
+        .map_err(|e| ros_err("spinner")(format!("{e:?}")))?;
+    std::thread::Builder::new()
+        .name("fdavar-spin".into())
+        .spawn(move || futures::executor::block_on(spinner.spin()))
+        .map_err(|e| ros_err("spinner thread")(e.to_string()))?;
+
+    let queue_size = usize::try_from(config.int("queue_size")).unwrap_or(1);
+    let (tx, rx) = mpsc::sync_channel::<Input>(queue_size);
+    let drops = Arc::new(AtomicU64::new(0));
+    let settings = MonitorSettings {
+        stale_timeout_s: config.double("stale_timeout_s"),
+        ..MonitorSettings::default()
+    };
+    let mut monitor = Monitor::new(settings, engine);
+    if dump.is_some() {
+        monitor.record_rows();
+    }
+    let analysis = Analysis {
+        monitor,
+        settings,
+        publish_period: Duration::from_secs_f64(1.0 / config.double("publish_rate_hz")),
+        diag_pub,
+        state_pubs,
+        clock: clock.clone(),
+        log: log.clone(),
+        drops: Arc::clone(&drops),
+        dump,
+        stop: Arc::clone(&stop),
+        latency: Latency {
+            ring: Vec::new(),
+            next: 0,
+        },
+    };
+    let analysis_thread = std::thread::Builder::new()
+        .name("fdavar-analysis".into())
+        .spawn(move || analysis.run(rx, param_rx))
+        .map_err(|e| ros_err("analysis thread")(e.to_string()))?;
+    log.info(&format!(
+        "fdavar_node {} on domain {}: imu '{imu_name}' ({}, depth {depth}), queue {queue_size}",
+        node.fully_qualified_name(),
+        config.domain_id,
+        if config.flag("qos.reliable") {
+            "reliable"
+        } else {
+            "best effort"
+        },
+    ));
+
+    receive_loop(
+        &mut imu_sub,
+        temp_sub.as_mut(),
+        clock_sub.as_mut(),
+        sim_time.as_deref(),
+        &clock,
+        &tx,
+        &drops,
+        &stop,
+        &log,
+    )?;
+    drop(tx);
+    let _ = analysis_thread.join();
+    node.stop_spinner();
+    Ok(())
+}
+
+/// A DDS topic for an absolute ROS name (never relative: see [`super::names`]).
+fn topic(
+    node: &mut Node,
+    name: &str,
+    type_name: MessageTypeName,
+    qos: &QosProfile,
+) -> Result<ros2_client::dds::rustdds::Topic, NodeError> {
+    let ros_name =
+        Name::parse(name).map_err(|e| ros_err(format!("topic {name}"))(format!("{e:?}")))?;
+    node.create_topic(&ros_name, type_name, qos)
+        .map_err(|e| ros_err(format!("topic {name}"))(format!("{e:?}")))
+}
+
+fn subscribe<M: 'static + serde::de::DeserializeOwned>(
+    node: &mut Node,
+    name: &str,
+    type_name: MessageTypeName,
+    qos: &QosProfile,
+) -> Result<Subscription<M>, NodeError> {
+    let topic = topic(node, name, type_name, qos)?;
+    node.create_subscription(&topic, Some(qos.clone()))
+        .map_err(|e| ros_err(format!("subscription {name}"))(format!("{e:?}")))
+}
+
+/// A subscription to `M` on the absolute topic `name` (used by the node benchmark).
+///
+/// # Errors
+/// [`NodeError::Ros`] when the name is invalid or DDS refuses.
+pub fn subscribe_on<M: RosMessage + 'static>(
+    node: &mut Node,
+    name: &str,
+    qos: &QosProfile,
+) -> Result<Subscription<M>, NodeError> {
+    subscribe(node, name, topic_type::<M>(), qos)
+}
+
+/// A publisher of `M` on the absolute topic `name` (used by `fdavar play` too).
+///
+/// # Errors
+/// [`NodeError::Ros`] when the name is invalid or DDS refuses.
+pub fn publish_on<M: RosMessage>(
+    node: &mut Node,
+    name: &str,
+    qos: &QosProfile,
+) -> Result<Publisher<M>, NodeError> {
+    publish(node, name, topic_type::<M>(), qos)
+}
+
+fn publish<M: serde::Serialize>(
+    node: &mut Node,
+    name: &str,
+    type_name: MessageTypeName,
+    qos: &QosProfile,
+) -> Result<Publisher<M>, NodeError> {
+    let topic = topic(node, name, type_name, qos)?;
+    node.create_publisher(&topic, Some(qos.clone()))
+        .map_err(|e| ros_err(format!("publisher {name}"))(format!("{e:?}")))
+}
+
+const IMU: Token = Token(1);
+const TEMPERATURE: Token = Token(2);
+const CLOCK: Token = Token(3);
+
+/// Takes messages off DDS and queues them; never blocks on the analysis.
+#[allow(clippy::too_many_arguments)]
+fn receive_loop(
+    imu: &mut Subscription<Imu>,
+    mut temperature: Option<&mut Subscription<Temperature>>,
+    mut clock_sub: Option<&mut Subscription<Clock>>,
+    sim_time: Option<&AtomicI64>,
+    clock: &NodeClock,
+    tx: &SyncSender<Input>,
+    drops: &AtomicU64,
+    stop: &AtomicBool,
+    log: &Log,
+) -> Result<(), NodeError> {
+    let poll_err = |e: std::io::Error| ros_err("poll")(e.to_string());
+    let mut poll = Poll::new().map_err(poll_err)?;
+    poll.registry()
+        .register(imu, IMU, Interest::READABLE)
+        .map_err(poll_err)?;
+    if let Some(t) = temperature.as_deref_mut() {
+        poll.registry()
+            .register(t, TEMPERATURE, Interest::READABLE)
+            .map_err(poll_err)?;
+    }
+    if let Some(c) = clock_sub.as_deref_mut() {
+        poll.registry()
+            .register(c, CLOCK, Interest::READABLE)
+            .map_err(poll_err)?;
+    }
+    let mut events = Events::with_capacity(16);
+    let mut read_errors_logged = false;
+    while !stop.load(Ordering::Relaxed) {
+        if let Err(e) = poll.poll(&mut events, Some(Duration::from_millis(100))) {
+            if e.kind() != std::io::ErrorKind::Interrupted {
+                log.warn(&format!("poll: {e}"));
+            }
+            continue;
+        }
+        // Edge-triggered: drain every source each wake-up (cheap when empty).
+        if let (Some(c), Some(t)) = (clock_sub.as_deref(), sim_time) {
+            while let Ok(Some((msg, _))) = c.take() {
+                t.store(msg.clock.to_ns(), Ordering::Relaxed);
+            }
+        }
+        loop {
+            match imu.take() {
+                Ok(Some((msg, _))) => {
+                    let input = Input::Imu {
+                        // A zero stamp stays zero here: the monitor decides (by
+                        // the stream's clock) what it means.
+                        sample: msg.to_sample(0),
+                        frame_id: msg.header.frame_id,
+                        receive_ns: clock.now_ns(),
+                        received: Instant::now(),
+                    };
+                    match tx.try_send(input) {
+                        Ok(()) => {}
+                        Err(TrySendError::Full(_)) => {
+                            drops.fetch_add(1, Ordering::Relaxed);
+                        }
+                        Err(TrySendError::Disconnected(_)) => return Ok(()),
+                    }
+                }
+                Ok(None) => break,
+                Err(e) => {
+                    // An undecodable message: count nothing we cannot attribute, log once.
+                    if !read_errors_logged {
+                        log.warn(&format!(
+                            "an IMU message could not be read ({e:?}); such messages are skipped"
+                        ));
+                        read_errors_logged = true;
+                    }
+                    break;
+                }
+            }
+        }
+        if let Some(t) = temperature.as_deref() {
+            // Temperature is not analysed yet by the node: drain so the reader does not hold it.
+            while let Ok(Some(_)) = t.take() {}
+        }
+    }
+    Ok(())
+}
+
+/// The analysis thread: owns the monitor and the publishers.
+struct Analysis {
+    monitor: Monitor,
+    settings: MonitorSettings,
+    publish_period: Duration,
+    diag_pub: Publisher<DiagnosticArray>,
+    state_pubs: Vec<Publisher<AxisState>>,
+    clock: NodeClock,
+    log: Log,
+    drops: Arc<AtomicU64>,
+    dump: Option<std::io::BufWriter<std::fs::File>>,
+    stop: Arc<AtomicBool>,
+    latency: Latency,
+}
+
+impl Analysis {
+    fn run(mut self, rx: Receiver<Input>, params: Receiver<Control>) {
+        let mut next_publish = Instant::now() + self.publish_period;
+        let mut drops_seen = 0;
+        loop {
+            let timeout = next_publish.saturating_duration_since(Instant::now());
+            match rx.recv_timeout(timeout) {
+                Ok(Input::Imu {
+                    sample,
+                    frame_id,
+                    receive_ns,
+                    received,
+                }) => {
+                    for line in self.monitor.push(sample, &frame_id, receive_ns) {
+                        self.log.warn(line);
+                    }
+                    self.latency.record(received.elapsed().as_secs_f64());
+                    if self.dump.is_some() {
+                        self.dump_rows();
+                    }
+                }
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => break,
+            }
+            while let Ok(control) = params.try_recv() {
+                match control {
+                    Control::Node(name, value) => self.apply(&name, &value),
+                    Control::Davar(name, config) => {
+                        match self.monitor.reconfigure(Change::Davar(config)) {
+                            Ok(()) => self
+                                .log
+                                .info(&format!("{name} changed: DAVAR pipeline restarted")),
+                            Err(e) => self.log.warn(&format!("{name} not applied: {e}")),
+                        }
+                    }
+                }
+            }
+            if Instant::now() >= next_publish {
+                let drops = self.drops.load(Ordering::Relaxed);
+                if let Some(line) = self.monitor.add_drops(drops - drops_seen) {
+                    self.log.warn(line);
+                }
+                drops_seen = drops;
+                self.publish();
+                // Rows reach the file at each publication, so that it can be read while the
+                // node runs.
+                if let Some(Err(e)) = self.dump.as_mut().map(std::io::Write::flush) {
+                    self.log
+                        .warn(&format!("dump_json: {e}; no more rows are written"));
+                    self.dump = None;
+                }
+                next_publish += self.publish_period;
+                if next_publish < Instant::now() {
+                    next_publish = Instant::now() + self.publish_period;
+                }
+            }
+            if self.stop.load(Ordering::Relaxed) {
+                break;
+            }
+        }
+        if let Some(mut d) = self.dump.take() {
+            if let Err(e) = d.flush() {
+                self.log.warn(&format!("dump_json: {e}"));
+            }
+        }
+    }
+
+    fn dump_rows(&mut self) {
+        let Some(dump) = self.dump.as_mut() else {
+            return;
+        };
+        for row in self.monitor.drain_rows() {
+            if let Err(e) = serde_json::to_writer(&mut *dump, &row)
+                .map_err(std::io::Error::from)
+                .and_then(|()| dump.write_all(b"\n"))
+            {
+                self.log
+                    .warn(&format!("dump_json: {e}; no more rows are written"));
+                self.dump = None;
+                return;
+            }
+        }
+    }
+
+    fn apply(&mut self, name: &str, value: &ParameterValue) {
+        match (name, value) {
+            ("publish_rate_hz", ParameterValue::Double(hz)) => {
+                self.publish_period = Duration::from_secs_f64(1.0 / hz);
+            }
+            ("stale_timeout_s", ParameterValue::Double(s)) => {
+                self.settings.stale_timeout_s = *s;
+                self.monitor.set_settings(self.settings);
+            }
+            ("model", ParameterValue::String(s)) => {
+                match self.monitor.reconfigure(Change::Model(s.clone())) {
+                    Ok(()) => self.log.info(&format!("{name} = {s}")),
+                    Err(e) => self.log.warn(&format!("{name} = {s} not applied: {e}")),
+                }
+            }
+            _ => self
+                .log
+                .warn(&format!("parameter {name} = {value:?} has no live effect")),
+        }
+    }
+
+    fn publish(&mut self) {
+        let (mut array, states, line) = self.monitor.report(self.clock.now_ns());
+        if let Some((p50, p99)) = self.latency.percentiles_ms() {
+            for status in &mut array.status {
+                status
+                    .values
+                    .push(KeyValue::new("latency_p50_ms", format!("{p50:.3}")));
+                status
+                    .values
+                    .push(KeyValue::new("latency_p99_ms", format!("{p99:.3}")));
+            }
+        }
+        if let Some(line) = line {
+            self.log.warn(line);
+        }
+        if let Err(e) = self.diag_pub.publish(array) {
+            self.log.warn(&format!("publishing /diagnostics: {e:?}"));
+        }
+        for state in states {
+            let index = state.axis.parse::<crate::signal::Axis>().map(|a| a.index());
+            if let Some(publisher) = index.ok().and_then(|i| self.state_pubs.get(i)) {
+                if let Err(e) = publisher.publish(state) {
+                    self.log.warn(&format!("publishing axis state: {e:?}"));
+                }
+            }
+        }
+    }
+}

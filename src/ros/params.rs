@@ -1,0 +1,489 @@
+//! The node's parameters: one table of names, defaults, validators and whether a change applies live.
+//!
+//! Why one table: declaration (what `ros2 param list` shows), validation of `-p` / `--params-file`
+//! values at startup, validation of `ros2 param set` at run time, and the docs all read it, so they
+//! cannot disagree. A refused value leaves everything unchanged and returns the reason to the caller
+//! (`SetParameters` answers `successful=False, reason=…`).
+//!
+//! The node has two groups of parameters: its own ([`NODE_PARAMS`]: rates, queue, QoS, model) and
+//! the DAVAR settings of [`crate::params::PARAMS`] (window policy, F̃, σ²_ref, τ grid, …), the same
+//! table and validation the offline `fdavar davar --params` uses. A DAVAR change is checked
+//! together with the other DAVAR values (e.g. `window.min` ≤ `window.max`) and must give a
+//! configuration that runs live.
+
+use super::args::yaml_to_param;
+use crate::params::ParamValue as DavarValue;
+use crate::pipeline::DavarConfig;
+use ros2_client::ParameterValue;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// One node parameter.
+#[derive(Debug)]
+pub struct ParamSpec {
+    /// Parameter name as `ros2 param` shows it.
+    pub name: &'static str,
+    /// One line for the docs.
+    pub doc: &'static str,
+    /// The default value (also fixes the type).
+    pub default: fn() -> ParameterValue,
+    /// Checks a candidate value (type and range); `Err` carries the reason.
+    pub validate: fn(&ParameterValue) -> Result<(), String>,
+    /// True when a change while running takes effect; false: read at startup only.
+    pub live: bool,
+}
+
+fn positive_double(v: &ParameterValue, max: f64) -> Result<(), String> {
+    match v {
+        ParameterValue::Double(x) if x.is_finite() && *x > 0.0 && *x <= max => Ok(()),
+        ParameterValue::Double(x) => Err(format!("must be in (0, {max}], got {x}")),
+        other => Err(format!("must be a double, got {other:?}")),
+    }
+}
+
+fn int_in(v: &ParameterValue, lo: i64, hi: i64) -> Result<(), String> {
+    match v {
+        ParameterValue::Integer(i) if (lo..=hi).contains(i) => Ok(()),
+        ParameterValue::Integer(i) => Err(format!("must be in [{lo}, {hi}], got {i}")),
+        other => Err(format!("must be an integer, got {other:?}")),
+    }
+}
+
+fn boolean(v: &ParameterValue) -> Result<(), String> {
+    match v {
+        ParameterValue::Boolean(_) => Ok(()),
+        other => Err(format!("must be a boolean, got {other:?}")),
+    }
+}
+
+fn string(v: &ParameterValue) -> Result<(), String> {
+    match v {
+        ParameterValue::String(_) => Ok(()),
+        other => Err(format!("must be a string, got {other:?}")),
+    }
+}
+
+/// Checks a model spec (comma-separated effect ids or aliases) with the model's own parser.
+fn model_spec(v: &ParameterValue) -> Result<(), String> {
+    match v {
+        ParameterValue::String(spec) => super::engine::model_kinds(spec).map(|_| ()),
+        other => Err(format!("must be a string like \"N,B,K\", got {other:?}")),
+    }
+}
+
+/// The node's parameter table, in the order of `ros2 param list` and the docs.
+pub static NODE_PARAMS: &[ParamSpec] = &[
+    ParamSpec {
+        name: "publish_rate_hz",
+        doc: "Rate of /diagnostics and ~/<axis>/state, Hz (0, 100].",
+        default: || ParameterValue::Double(1.0),
+        validate: |v| positive_double(v, 100.0),
+        live: true,
+    },
+    ParamSpec {
+        name: "stale_timeout_s",
+        doc: "No IMU message for this long (s) turns every status ERROR (stale input).",
+        default: || ParameterValue::Double(1.0),
+        validate: |v| positive_double(v, 3600.0),
+        live: true,
+    },
+    ParamSpec {
+        name: "queue_size",
+        doc: "Samples the analysis queue holds; when full, new samples are dropped and counted.",
+        default: || ParameterValue::Integer(10_000),
+        validate: |v| int_in(v, 1, 1_000_000),
+        live: false,
+    },
+    ParamSpec {
+        name: "qos.reliable",
+        doc: "Subscribe `imu` reliable (matches only reliable publishers); default best effort.",
+        default: || ParameterValue::Boolean(false),
+        validate: boolean,
+        live: false,
+    },
+    ParamSpec {
+        name: "qos.depth",
+        doc: "Keep-last depth of the `imu` subscription.",
+        default: || ParameterValue::Integer(100),
+        validate: |v| int_in(v, 1, 100_000),
+        live: false,
+    },
+    ParamSpec {
+        name: "temperature",
+        doc: "Also subscribe `temperature` (sensor_msgs/msg/Temperature).",
+        default: || ParameterValue::Boolean(false),
+        validate: boolean,
+        live: false,
+    },
+    ParamSpec {
+        name: "use_sim_time",
+        doc: "Take the node's time from /clock (rosgraph_msgs/msg/Clock).",
+        default: || ParameterValue::Boolean(false),
+        validate: boolean,
+        live: false,
+    },
+    ParamSpec {
+        name: "model",
+        doc: "Noise model fitted to each row: effect ids or aliases, comma-separated (e.g. N,B,K).",
+        default: || ParameterValue::String("N,B,K".to_string()),
+        validate: model_spec,
+        live: true,
+    },
+    ParamSpec {
+        name: "dump_json",
+        doc: "If not empty, a file the node appends one JSON line per analysis row to.",
+        default: || ParameterValue::String(String::new()),
+        validate: string,
+        live: false,
+    },
+];
+
+/// A parameter value refused at startup or at run time.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ParamError {
+    /// No such parameter.
+    #[error("unknown parameter '{name}' (see `ros2 param list`)")]
+    Unknown {
+        /// The name given.
+        name: String,
+    },
+    /// The validator refused the value.
+    #[error("parameter '{name}': {reason}")]
+    Invalid {
+        /// Parameter name.
+        name: String,
+        /// The validator's reason.
+        reason: String,
+    },
+    /// A parameter file could not be read.
+    #[error("parameter file {path}: {reason}")]
+    File {
+        /// The file.
+        path: String,
+        /// What went wrong.
+        reason: String,
+    },
+}
+
+/// Looks a parameter up in [`NODE_PARAMS`].
+pub fn spec(name: &str) -> Option<&'static ParamSpec> {
+    NODE_PARAMS.iter().find(|p| p.name == name)
+}
+
+/// Validates one (name, value) pair against the table; integers are accepted for doubles.
+///
+/// Returns the value to store (an integer given for a double parameter becomes a double, as a
+/// YAML `2` for `publish_rate_hz` means 2.0).
+///
+/// # Errors
+/// [`ParamError::Unknown`] or [`ParamError::Invalid`] with the validator's reason.
+pub fn validate(name: &str, value: &ParameterValue) -> Result<ParameterValue, ParamError> {
+    let spec = spec(name).ok_or_else(|| ParamError::Unknown {
+        name: name.to_string(),
+    })?;
+    let value = match (value, (spec.default)()) {
+        (ParameterValue::Integer(i), ParameterValue::Double(_)) => {
+            ParameterValue::Double(*i as f64)
+        }
+        (v, _) => v.clone(),
+    };
+    (spec.validate)(&value).map_err(|reason| ParamError::Invalid {
+        name: name.to_string(),
+        reason,
+    })?;
+    Ok(value)
+}
+
+/// Reads the `ros__parameters` for `node_fqn` (e.g. `/fdavar`) from a ROS 2 parameter YAML file.
+///
+/// Sections apply in file order when their key is `/**`, the node's base name, or its fully
+/// qualified name (with or without the leading slash); nested maps flatten to dotted names
+/// (`qos: {reliable: true}` → `qos.reliable`).
+///
+/// # Errors
+/// [`ParamError::File`] when the file is unreadable or not a map of maps.
+pub fn read_params_file(
+    path: &Path,
+    node_fqn: &str,
+) -> Result<Vec<(String, ParameterValue)>, ParamError> {
+    let file_err = |reason: String| ParamError::File {
+        path: path.display().to_string(),
+        reason,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| file_err(e.to_string()))?;
+    let doc: serde_yaml_ng::Value =
+        serde_yaml_ng::from_str(&text).map_err(|e| file_err(e.to_string()))?;
+    let serde_yaml_ng::Value::Mapping(nodes) = doc else {
+        return Err(file_err(
+            "the top level is not a map of node names".to_string(),
+        ));
+    };
+    let base = node_fqn.rsplit('/').next().unwrap_or(node_fqn);
+    let mut out = Vec::new();
+    for (key, section) in nodes {
+        let key = key.as_str().unwrap_or_default();
+        let applies = key == "/**"
+            || key == base
+            || key == node_fqn
+            || key.trim_start_matches('/') == node_fqn.trim_start_matches('/');
+        if !applies {
+            continue;
+        }
+        let Some(params) = section.get("ros__parameters") else {
+            continue;
+        };
+        flatten(params, "", &mut out).map_err(file_err)?;
+    }
+    Ok(out)
+}
+
+fn flatten(
+    v: &serde_yaml_ng::Value,
+    prefix: &str,
+    out: &mut Vec<(String, ParameterValue)>,
+) -> Result<(), String> {
+    let serde_yaml_ng::Value::Mapping(map) = v else {
+        return Err(format!("'{prefix}' ros__parameters is not a map"));
+    };
+    for (k, v) in map {
+        let k = k.as_str().ok_or("a parameter name is not a string")?;
+        let name = if prefix.is_empty() {
+            k.to_string()
+        } else {
+            format!("{prefix}.{k}")
+        };
+        if v.is_mapping() {
+            flatten(v, &name, out)?;
+        } else {
+            let value = yaml_to_param(v).map_err(|r| format!("parameter '{name}' {r}"))?;
+            out.push((name, value));
+        }
+    }
+    Ok(())
+}
+
+/// The node's parameter values: the defaults, then parameter files, then `-p`, each validated.
+///
+/// Parameters the table does not know are skipped when they come from a file (a shared
+/// `launch_params/*.yaml` may hold keys for other tools) but refused from `-p`.
+///
+/// # Errors
+/// The first [`ParamError`]: startup configuration errors stop the node.
+pub fn startup_values(
+    files: &[std::path::PathBuf],
+    overrides: &[(String, ParameterValue)],
+    node_fqn: &str,
+) -> Result<BTreeMap<String, ParameterValue>, ParamError> {
+    let mut values: BTreeMap<String, ParameterValue> = NODE_PARAMS
+        .iter()
+        .map(|p| (p.name.to_string(), (p.default)()))
+        .collect();
+    for file in files {
+        for (name, value) in read_params_file(file, node_fqn)? {
+            if spec(&name).is_some() {
+                values.insert(name.clone(), validate(&name, &value)?);
+            }
+        }
+    }
+    for (name, value) in overrides {
+        if !is_davar(name) {
+            values.insert(name.clone(), validate(name, value)?);
+        }
+    }
+    Ok(values)
+}
+
+/// True for a DAVAR parameter (a name of [`crate::params::PARAMS`]).
+pub fn is_davar(name: &str) -> bool {
+    crate::params::spec(name).is_some()
+}
+
+/// A ROS parameter value as a parameter-file value (`None` for arrays and unset).
+pub fn davar_value(v: &ParameterValue) -> Option<DavarValue> {
+    Some(match v {
+        ParameterValue::Boolean(b) => DavarValue::Bool(*b),
+        ParameterValue::Integer(i) => DavarValue::Int(*i),
+        ParameterValue::Double(x) => DavarValue::Float(*x),
+        ParameterValue::String(s) => DavarValue::Str(s.clone()),
+        _ => return None,
+    })
+}
+
+/// A parameter-file value as a ROS parameter value.
+pub fn ros_value(v: &DavarValue) -> ParameterValue {
+    match v {
+        DavarValue::Bool(b) => ParameterValue::Boolean(*b),
+        DavarValue::Int(i) => ParameterValue::Integer(*i),
+        DavarValue::Float(x) => ParameterValue::Double(*x),
+        DavarValue::Str(s) => ParameterValue::String(s.clone()),
+    }
+}
+
+/// Checks a change of one DAVAR parameter against the current values of all of them.
+///
+/// Returns the new values and the configuration they make. The configuration must run live (the
+/// offline-only `sigma_ref.mode: record` is refused here).
+///
+/// # Errors
+/// The reason, naming the parameter: wrong type, out of range, inconsistent with another
+/// parameter, or not runnable live.
+pub fn davar_change(
+    current: &BTreeMap<String, DavarValue>,
+    name: &str,
+    value: &ParameterValue,
+) -> Result<(BTreeMap<String, DavarValue>, DavarConfig), String> {
+    let spec = crate::params::spec(name).ok_or_else(|| format!("unknown parameter '{name}'"))?;
+    let value = davar_value(value)
+        .ok_or_else(|| format!("parameter '{name}': arrays and unset values are not accepted"))?;
+    let value = spec.check(&value).map_err(|e| e.to_string())?;
+    let mut next = current.clone();
+    next.insert(name.to_string(), value);
+    let config = crate::params::config_from_params(&next).map_err(|e| e.to_string())?;
+    crate::pipeline::Pipeline::new(config.clone(), &crate::signal::Axis::ALL, None)
+        .map_err(|e| format!("parameter '{name}': {e}"))?;
+    Ok((next, config))
+}
+
+/// The DAVAR parameter values at startup: defaults, then the files' DAVAR keys, then `-p`.
+///
+/// # Errors
+/// [`ParamError`] for an unreadable file or a value the DAVAR table refuses.
+pub fn davar_startup(
+    files: &[std::path::PathBuf],
+    overrides: &[(String, ParameterValue)],
+) -> Result<(BTreeMap<String, DavarValue>, DavarConfig), ParamError> {
+    let mut values: BTreeMap<String, DavarValue> = crate::params::PARAMS
+        .iter()
+        .map(|p| (p.name.to_string(), p.default_value()))
+        .collect();
+    let invalid = |name: &str, reason: String| ParamError::Invalid {
+        name: name.to_string(),
+        reason,
+    };
+    for file in files {
+        let text = std::fs::read_to_string(file).map_err(|e| ParamError::File {
+            path: file.display().to_string(),
+            reason: e.to_string(),
+        })?;
+        let from_file = match crate::params::flatten_ros_params(&text) {
+            Ok(map) => map,
+            Err(crate::params::ParamsError::NoSection) => continue,
+            Err(e) => {
+                return Err(ParamError::File {
+                    path: file.display().to_string(),
+                    reason: e.to_string(),
+                })
+            }
+        };
+        for (name, value) in from_file {
+            if let Some(spec) = crate::params::spec(&name) {
+                let value = spec
+                    .check(&value)
+                    .map_err(|e| invalid(&name, e.to_string()))?;
+                values.insert(name, value);
+            }
+        }
+    }
+    for (name, value) in overrides.iter().filter(|(n, _)| is_davar(n)) {
+        let (next, _) = davar_change(&values, name, value).map_err(|r| invalid(name, r))?;
+        values = next;
+    }
+    let config = crate::params::config_from_params(&values)
+        .map_err(|e| invalid("(DAVAR settings)", e.to_string()))?;
+    crate::pipeline::Pipeline::new(config.clone(), &crate::signal::Axis::ALL, None)
+        .map_err(|e| invalid("(DAVAR settings)", e.to_string()))?;
+    Ok((values, config))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn invalid_values_are_refused_with_a_reason() {
+        let e = validate("publish_rate_hz", &ParameterValue::Double(-1.0)).unwrap_err();
+        assert!(e.to_string().contains("(0, 100]"), "{e}");
+        assert!(validate("publish_rate_hz", &ParameterValue::String("x".into())).is_err());
+        assert!(validate("queue_size", &ParameterValue::Integer(0)).is_err());
+        assert!(validate("no_such", &ParameterValue::Integer(0)).is_err());
+        assert!(validate("model", &ParameterValue::String("N,B,K,sinusoid".into())).is_ok());
+        let e = validate("model", &ParameterValue::String("N,warp_drive".into())).unwrap_err();
+        assert!(e.to_string().contains("warp_drive"), "{e}");
+    }
+
+    #[test]
+    fn davar_changes_are_checked_against_the_other_davar_values() {
+        let (values, _) = davar_startup(&[], &[]).unwrap();
+        let (next, config) =
+            davar_change(&values, "window.min", &ParameterValue::Integer(201)).unwrap();
+        assert_eq!(next["window.min"], DavarValue::Int(201));
+        assert_eq!(config.policy.max_window(), 501);
+        let e = davar_change(&values, "window.min", &ParameterValue::Integer(900)).unwrap_err();
+        assert!(e.contains("window.max"), "{e}");
+        let e = davar_change(
+            &values,
+            "sigma_ref.mode",
+            &ParameterValue::String("record".into()),
+        )
+        .unwrap_err();
+        assert!(e.contains("record"), "{e}");
+        let e =
+            davar_change(&values, "window.min", &ParameterValue::String("x".into())).unwrap_err();
+        assert!(e.contains("window.min"), "{e}");
+        // -p of a DAVAR name reaches the DAVAR table, not the node's.
+        let (v, _) =
+            davar_startup(&[], &[("window.step".into(), ParameterValue::Integer(8))]).unwrap();
+        assert_eq!(v["window.step"], DavarValue::Int(8));
+        assert!(startup_values(
+            &[],
+            &[("window.step".into(), ParameterValue::Integer(8))],
+            "/fdavar"
+        )
+        .is_ok());
+    }
+
+    #[test]
+    fn the_shipped_parameter_files_are_valid_for_the_node() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("launch_params");
+        let files = [dir.join("default.yaml"), dir.join("node.yaml")];
+        let node = startup_values(&files, &[], "/fdavar").unwrap();
+        assert_eq!(node["queue_size"], ParameterValue::Integer(10_000));
+        let (davar, _) = davar_startup(&files, &[]).unwrap();
+        assert_eq!(davar["window.max"], DavarValue::Int(501));
+        // Every default of the node table matches node.yaml, so the file documents the defaults.
+        for spec in NODE_PARAMS {
+            assert_eq!(node[spec.name], (spec.default)(), "{}", spec.name);
+        }
+    }
+
+    #[test]
+    fn integers_are_accepted_for_doubles() {
+        assert_eq!(
+            validate("publish_rate_hz", &ParameterValue::Integer(2)).unwrap(),
+            ParameterValue::Double(2.0)
+        );
+    }
+
+    #[test]
+    fn params_files_apply_by_node_name_and_flatten() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.yaml");
+        std::fs::write(
+            &path,
+            "/**:\n  ros__parameters:\n    publish_rate_hz: 2\nother:\n  ros__parameters:\n    queue_size: 5\n\
+             fdavar:\n  ros__parameters:\n    qos:\n      reliable: true\n    unrelated_key: 3\n",
+        )
+        .unwrap();
+        let v = startup_values(
+            &[path],
+            &[("queue_size".into(), ParameterValue::Integer(7))],
+            "/fdavar",
+        )
+        .unwrap();
+        assert_eq!(v["publish_rate_hz"], ParameterValue::Double(2.0));
+        assert_eq!(v["qos.reliable"], ParameterValue::Boolean(true));
+        assert_eq!(v["queue_size"], ParameterValue::Integer(7));
+        assert!(!v.contains_key("unrelated_key"));
+    }
+}

@@ -1,0 +1,517 @@
+//! Interop tests of `fdavar_node` against a real ROS 2 peer: rclpy + Fast DDS from PyPI
+//! (tests/ros/peer.py). Each test runs the node on a ROS_DOMAIN_ID of its own, so tests in parallel
+//! never see each other, and every wait is bounded.
+//!
+//! Python comes from `FDAVAR_PYTHON` (default `.venv/bin/python`, made by `.ci/setup-ros.sh`). When
+//! it or rclpy is missing the test prints why and passes, unless `FDAVAR_REQUIRE_PYTHON=1`.
+#![cfg(feature = "ros")]
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+fn crate_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The Python with rclpy, or None (skip) with the reason printed.
+fn python() -> Option<PathBuf> {
+    let path = std::env::var_os("FDAVAR_PYTHON")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| crate_root().join(".venv/bin/python"));
+    let ok = Command::new(&path)
+        .args([
+            "-c",
+            "import rclpy, sensor_msgs.msg, diagnostic_msgs.msg, rosgraph_msgs.msg",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if ok {
+        return Some(path);
+    }
+    let why = format!(
+        "{} cannot import rclpy (run .ci/setup-ros.sh .venv)",
+        path.display()
+    );
+    if std::env::var("FDAVAR_REQUIRE_PYTHON").as_deref() == Ok("1") {
+        panic!("{why}");
+    }
+    eprintln!("skipped: {why}");
+    None
+}
+
+/// The colcon install tree built by .ci/setup-ros.sh, if present (gives fdavar_msgs to Python).
+fn colcon_install() -> Option<PathBuf> {
+    let p = crate_root().join("target/colcon_ws/install");
+    p.join("fdavar_msgs").is_dir().then_some(p)
+}
+
+/// A child process killed when the test ends, whatever happens.
+struct Killed(Child);
+
+impl Drop for Killed {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn start_node(domain: u16, ros_args: &[&str]) -> Killed {
+    let child = Command::new(env!("CARGO_BIN_EXE_fdavar_node"))
+        .arg("--ros-args")
+        .args(ros_args)
+        .env("ROS_DOMAIN_ID", domain.to_string())
+        .stdout(Stdio::null())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("spawn fdavar_node");
+    Killed(child)
+}
+
+/// Runs a peer scenario and returns its JSON verdict; panics with the peer's words on failure.
+fn peer(
+    python: &Path,
+    domain: u16,
+    scenario: &str,
+    timeout: Duration,
+    mut watch: Option<&mut Watch>,
+) -> serde_json::Value {
+    let mut cmd = Command::new(python);
+    cmd.arg(crate_root().join("tests/ros/peer.py"))
+        .args(scenario.split_whitespace())
+        .env("ROS_DOMAIN_ID", domain.to_string())
+        .env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    if let Some(install) = colcon_install() {
+        let prefix = install.join("fdavar_msgs");
+        let py = std::fs::read_dir(prefix.join("lib"))
+            .into_iter()
+            .flatten()
+            .flatten()
+            .map(|e| e.path().join("site-packages"))
+            .find(|p| p.is_dir());
+        if let Some(py) = py {
+            let join = |var: &str, add: &Path| {
+                let old = std::env::var(var).unwrap_or_default();
+                format!("{}:{old}", add.display())
+            };
+            cmd.env("PYTHONPATH", join("PYTHONPATH", &py));
+            cmd.env(
+                "LD_LIBRARY_PATH",
+                join("LD_LIBRARY_PATH", &prefix.join("lib")),
+            );
+            cmd.env("AMENT_PREFIX_PATH", join("AMENT_PREFIX_PATH", &prefix));
+        }
+    }
+    let mut child = Killed(cmd.spawn().expect("spawn python"));
+    // Lines arrive on a channel so that the node can be watched while the peer runs.
+    let stdout = child.0.stdout.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel::<String>();
+    std::thread::spawn(move || {
+        use std::io::BufRead;
+        for line in std::io::BufReader::new(stdout)
+            .lines()
+            .map_while(Result::ok)
+        {
+            let _ = tx.send(line);
+        }
+    });
+    let mut stderr = child.0.stderr.take().unwrap();
+    let err_reader = std::thread::spawn(move || {
+        let mut err = String::new();
+        use std::io::Read;
+        let _ = stderr.read_to_string(&mut err);
+        err
+    });
+    let start = Instant::now();
+    let mut lines = Vec::new();
+    let mut flooding = false;
+    loop {
+        match rx.recv_timeout(Duration::from_millis(100)) {
+            Ok(line) => {
+                flooding = match line.as_str() {
+                    "flood-start" => true,
+                    "flood-end" => false,
+                    _ => flooding,
+                };
+                lines.push(line);
+            }
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => break,
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+        }
+        if let (true, Some(pid)) = (flooding, watch.as_deref_mut()) {
+            pid.rss_kb.extend(rss_kb(pid.pid));
+        }
+        assert!(
+            start.elapsed() < timeout,
+            "peer {scenario} did not finish within {timeout:?}"
+        );
+    }
+    let _ = child.0.wait();
+    let err = err_reader.join().unwrap_or_default();
+    let last = lines.last().cloned().unwrap_or_default();
+    let verdict: serde_json::Value = serde_json::from_str(&last).unwrap_or_else(|_| {
+        panic!(
+            "peer {scenario} printed no verdict.\nstdout:\n{}\nstderr:\n{err}",
+            lines.join("\n")
+        )
+    });
+    assert!(
+        verdict["ok"].as_bool().unwrap_or(false),
+        "peer {scenario} failed: {verdict}\nstderr:\n{err}"
+    );
+    verdict
+}
+
+/// A process whose resident memory is sampled while the peer floods it.
+struct Watch {
+    pid: u32,
+    rss_kb: Vec<u64>,
+}
+
+/// Resident set size of a process, kB, from /proc.
+fn rss_kb(pid: u32) -> Option<u64> {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
+#[test]
+fn rclpy_imu_reaches_the_node_and_diagnostics_come_back() {
+    let Some(py) = python() else { return };
+    let _node = start_node(61, &["-p", "publish_rate_hz:=2.0"]);
+    let v = peer(&py, 61, "diagnostics", Duration::from_secs(60), None);
+    eprintln!("diagnostics: {v}");
+}
+
+#[test]
+fn parameters_are_listed_set_and_refused_through_the_ros_services() {
+    let Some(py) = python() else { return };
+    let _node = start_node(62, &[]);
+    let v = peer(&py, 62, "params", Duration::from_secs(60), None);
+    eprintln!("params: {v}");
+}
+
+#[test]
+fn sim_time_from_clock_drives_the_node() {
+    let Some(py) = python() else { return };
+    let _node = start_node(
+        63,
+        &["-p", "use_sim_time:=true", "-p", "publish_rate_hz:=5.0"],
+    );
+    let v = peer(&py, 63, "sim_time", Duration::from_secs(60), None);
+    eprintln!("sim_time: {v}");
+}
+
+#[test]
+fn bad_input_is_counted_and_silence_is_stale() {
+    let Some(py) = python() else { return };
+    let _node = start_node(
+        64,
+        &["-p", "publish_rate_hz:=4.0", "-p", "stale_timeout_s:=1.0"],
+    );
+    let v = peer(&py, 64, "bad_input", Duration::from_secs(60), None);
+    eprintln!("bad_input: {v}");
+}
+
+#[test]
+fn startup_config_errors_exit_non_zero_with_a_reason() {
+    for (args, want) in [
+        (vec!["-p", "publish_rate_hz:=-1.0"], "publish_rate_hz"),
+        (vec!["-r", "__node:=9bad"], "9bad"),
+        (vec!["--bogus"], "bogus"),
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_fdavar_node"))
+            .arg("--ros-args")
+            .args(&args)
+            .env("ROS_DOMAIN_ID", "65")
+            .output()
+            .expect("run fdavar_node");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert!(err.contains(want), "{args:?}: {err}");
+    }
+    let out = Command::new(env!("CARGO_BIN_EXE_fdavar_node"))
+        .env("ROS_DOMAIN_ID", "999")
+        .output()
+        .expect("run fdavar_node");
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("ROS_DOMAIN_ID"));
+}
+
+#[test]
+fn a_flood_is_dropped_and_counted_with_bounded_memory() {
+    let Some(py) = python() else { return };
+    let node = start_node(66, &["-p", "queue_size:=64", "-p", "publish_rate_hz:=4.0"]);
+    let mut watch = Watch {
+        pid: node.0.id(),
+        rss_kb: Vec::new(),
+    };
+    let v = peer(&py, 66, "flood", Duration::from_secs(90), Some(&mut watch));
+    eprintln!(
+        "flood: {v}; node RSS during the flood (kB): {:?}",
+        watch.rss_kb
+    );
+    let (first, max) = (watch.rss_kb[0], *watch.rss_kb.iter().max().unwrap());
+    // Bounded: the queue holds 64 samples and the DDS reader keeps the last 100 messages, so the
+    // flood may not grow the node by more than allocator noise (a few MB), whatever its length.
+    assert!(
+        max - first < 16 * 1024,
+        "RSS grew from {first} kB to {max} kB during the flood"
+    );
+    assert!(
+        v["sent"].as_u64().unwrap() >= 2000,
+        "the peer did not flood: {v}"
+    );
+}
+
+#[test]
+fn fdavar_play_replays_a_recording_into_the_node_without_loss() {
+    let Some(py) = python() else { return };
+    // A recording the test writes: 1000 samples at 200 Hz with the sensor's own stamps.
+    let dir = tempfile::tempdir().unwrap();
+    let bag = dir.path().join("rec");
+    let mut writer = fdavar::bag::BagWriter::create(&bag).unwrap();
+    for k in 0..1000_i64 {
+        let sample = fdavar::signal::ImuSample {
+            stamp_ns: 1_000_000_000 + k * 5_000_000,
+            gyro: [1e-3 * (k as f64 * 0.1).sin(), 0.0, 0.0],
+            accel: [0.0, 0.0, 9.81],
+        };
+        // Log times lag the stamps by 1 ms, as a recorder's would.
+        writer
+            .write_imu(
+                "/imu",
+                1_700_000_000_000_000_000 + k * 5_000_000 + 1_000_000,
+                &sample,
+                "imu_link",
+            )
+            .unwrap();
+    }
+    writer.finish().unwrap();
+    let _node = start_node(
+        67,
+        &["-p", "qos.reliable:=true", "-p", "publish_rate_hz:=5.0"],
+    );
+    let player = std::thread::spawn(move || {
+        let out = Command::new(env!("CARGO_BIN_EXE_fdavar"))
+            .args([
+                "play",
+                bag.to_str().unwrap(),
+                "--reliable",
+                "--rate",
+                "2",
+                "--domain-id",
+                "67",
+            ])
+            .args(["--wait-s", "30"])
+            .output()
+            .expect("run fdavar play");
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    });
+    let v = peer(
+        &py,
+        67,
+        "expect_samples 1000",
+        Duration::from_secs(90),
+        None,
+    );
+    let (code, err) = player.join().unwrap();
+    eprintln!("play: {v}; fdavar play said: {err}");
+    assert_eq!(code, Some(0), "fdavar play: {err}");
+    assert!(err.contains("1000 IMU"), "{err}");
+}
+
+/// A recording with a noise change: 3600 samples at 200 Hz, white noise whose level triples
+/// between samples 1200 and 2400 on every axis (the seed's test signal, at a ROS rate).
+fn write_recording(bag: &Path, n: i64) {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2016);
+    let normal = Normal::new(0.0, 1.0).unwrap();
+    let mut writer = fdavar::bag::BagWriter::create(bag).unwrap();
+    for k in 0..n {
+        let level = if (1200..2400).contains(&k) {
+            3e-3
+        } else {
+            1e-3
+        };
+        let mut v = [0.0; 6];
+        for x in &mut v {
+            *x = level * normal.sample(&mut rng);
+        }
+        let sample = fdavar::signal::ImuSample {
+            stamp_ns: 1_000_000_000 + k * 5_000_000,
+            gyro: [v[0], v[1], v[2]],
+            accel: [v[3], v[4], 9.81 + v[5]],
+        };
+        let log = 1_700_000_000_000_000_000 + k * 5_000_000 + 700_000;
+        writer.write_imu("/imu", log, &sample, "imu_link").unwrap();
+    }
+    writer.finish().unwrap();
+}
+
+/// The rows the offline pipeline gives for the recording, as the node would publish them.
+fn offline_rows(bag: &Path) -> Vec<serde_json::Value> {
+    let reader = fdavar::bag::BagReader::open(bag).unwrap();
+    let topic = reader.imu_topic(None).unwrap().name.clone();
+    let config = fdavar::params::config_from_params(&Default::default()).unwrap();
+    let axes = fdavar::signal::Axis::ALL;
+    let mut pipeline = fdavar::pipeline::Pipeline::new(config, &axes, None).unwrap();
+    let mut out = fdavar::pipeline::Output::default();
+    for m in reader.messages(&topic, None).unwrap() {
+        if let fdavar::bag::BagMessage::Imu { sample, .. } = m.unwrap() {
+            pipeline.push(&sample, &mut out);
+        }
+    }
+    let tau0 = pipeline.tau0().unwrap();
+    out.rows
+        .iter()
+        .map(|r| {
+            let mut state = fdavar::ros::engine::axis_state(r, tau0);
+            state.header.frame_id = "imu_link".into();
+            // Through text, like the node's file: equal f64 give equal text and equal parses
+            // (serde_json's default float parser is not exact, so to_value would differ by ulps).
+            serde_json::from_str(&serde_json::to_string(&state).unwrap()).unwrap()
+        })
+        .collect()
+}
+
+#[test]
+fn live_rows_equal_offline_rows_for_a_replayed_recording() {
+    // Rust only: fdavar play → fdavar_node (reliable) → dump_json, against the offline pipeline.
+    let dir = tempfile::tempdir().unwrap();
+    let bag = dir.path().join("rec");
+    write_recording(&bag, 3600);
+    let expected = offline_rows(&bag);
+    assert!(
+        expected.len() > 6 * 3000,
+        "offline gave {} rows",
+        expected.len()
+    );
+    let dump = dir.path().join("rows.jsonl");
+    let dump_arg = format!("dump_json:={}", dump.display());
+    let _node = start_node(
+        68,
+        &[
+            "-p",
+            "qos.reliable:=true",
+            "-p",
+            "publish_rate_hz:=10.0",
+            "-p",
+            &dump_arg,
+        ],
+    );
+    let out = Command::new(env!("CARGO_BIN_EXE_fdavar"))
+        .args([
+            "play",
+            bag.to_str().unwrap(),
+            "--reliable",
+            "--rate",
+            "4",
+            "--domain-id",
+            "68",
+            "--wait-s",
+            "30",
+        ])
+        .output()
+        .expect("run fdavar play");
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "fdavar play: {said}");
+    // Wait (bounded) for the node to have written every row.
+    let start = Instant::now();
+    let mut live: Vec<serde_json::Value> = Vec::new();
+    while start.elapsed() < Duration::from_secs(30) {
+        let text = std::fs::read_to_string(&dump).unwrap_or_default();
+        live = text
+            .lines()
+            .filter_map(|l| serde_json::from_str(l).ok())
+            .collect();
+        if live.len() >= expected.len() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    eprintln!("live rows {}, offline rows {}", live.len(), expected.len());
+    assert_eq!(
+        live.len(),
+        expected.len(),
+        "the node did not produce every row"
+    );
+    // Counters are the node's own (samples so far): compare the analysis, field by field.
+    for (i, (l, o)) in live.iter().zip(&expected).enumerate() {
+        for key in [
+            "header",
+            "axis",
+            "analysis_time_s",
+            "window_length",
+            "f_value",
+            "f_reference",
+            "sample_period_s",
+            "row",
+        ] {
+            assert_eq!(
+                l[key], o[key],
+                "row {i} ({} at {}): {key} differs",
+                o["axis"], o["analysis_time_s"]
+            );
+        }
+    }
+}
+
+#[test]
+fn colcon_workspace_has_the_node_where_ros2_run_looks_and_importable_messages() {
+    // Built by `.ci/setup-ros.sh` (colcon build of the repository as a workspace package).
+    let Some(py) = python() else { return };
+    let install = crate_root().join("target/colcon_ws/install");
+    let node = install.join("fdavar/lib/fdavar/fdavar_node");
+    if !node.is_file() {
+        let why = format!("{} missing: run .ci/setup-ros.sh .venv", node.display());
+        assert!(
+            std::env::var("FDAVAR_REQUIRE_PYTHON").as_deref() != Ok("1"),
+            "{why}"
+        );
+        eprintln!("skipped: {why}");
+        return;
+    }
+    // It is our node: a bad argument is refused with our message and exit code 1.
+    let out = Command::new(&node)
+        .args(["--ros-args", "--bogus"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--ros-args: unknown argument"));
+    // fdavar_msgs imports and decodes from the install tree (what `. install/setup.sh` gives).
+    let script = "from fdavar_msgs.msg import AxisState, DavarPoint; \
+                  m = AxisState(); m.window_length = 171; m.row = [DavarPoint(tau_s=0.03)]; \
+                  print(type(m).__name__, m.window_length, len(m.row))";
+    let out = Command::new("bash")
+        .arg("-c")
+        .arg(format!(
+            ". {}/setup.sh && {} -c '{script}'",
+            install.display(),
+            py.display()
+        ))
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        said.contains("AxisState 171 1"),
+        "stdout {said}\nstderr {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn setting_the_model_live_lowers_the_fit_error_of_a_hidden_sinusoid() {
+    let Some(py) = python() else { return };
+    let _node = start_node(69, &["-p", "publish_rate_hz:=2.0", "-p", "model:=N,B,K"]);
+    let v = peer(&py, 69, "model", Duration::from_secs(90), None);
+    eprintln!("model: {v}");
+}

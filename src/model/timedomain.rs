@@ -75,7 +75,6 @@ pub fn estimate(
             let best = (0..3)
                 .map(|src| (src, regress(series, acc[src])))
                 .max_by(|a, b| a.1 .2.total_cmp(&b.1 .2))
-                .map(|(src, r)| (src, r))
                 .unwrap_or((0, (0.0, 0.0, 0.0)));
             let (src, (c, s, strength)) = best;
             Ok(Estimate {
@@ -216,9 +215,9 @@ pub fn regress_slow(y: &[f64], x: &[f64]) -> (f64, f64, f64) {
 
 /// Whether a time-domain estimate is significant on its own evidence.
 ///
-/// Thresholds on the estimators' statistics: a regression's t² > 25 (5σ), a step contrast
-/// > 40 times its robust variance (6.3σ: the maximum over ~n/W positions of a χ²₁ stays far
-/// below), a burst's likelihood ratio > 30.
+/// Thresholds on the estimators' statistics: a regression's t² above 25 (5σ), a step contrast
+/// above 40 times its robust variance (6.3σ: the maximum over ~n/W positions of a χ²₁ stays far
+/// below), a burst's likelihood ratio above 30.
 pub fn is_significant(kind: &dyn EffectKind, est: &Estimate) -> bool {
     let threshold = match kind.id() {
         "temperature" | "g_sensitivity" => 25.0,

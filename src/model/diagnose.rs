@@ -11,8 +11,8 @@
 //!    amplitude is at least 2σ from zero.
 //!
 //! Time-domain effects are tried only with their evidence (DESIGN §6): a temperature topic, the
-//! accel axes (gyro axes only), and for `noise_burst` a DAVAR event or a windowed-variance change
-//! whose likelihood ratio is itself significant.
+//! accel axes (gyro axes only), and for `noise_burst` / `bias_step` a DAVAR event or, without
+//! events, their own estimator's significant statistic (windowed-variance change, mean contrast).
 //! Suggestions are sorted best first (lowest fit_error after).
 
 use crate::model::effects::{Domain, EffectKind, Evidence};
@@ -32,10 +32,6 @@ pub const MIN_IMPROVEMENT: f64 = 1.5;
 /// Gauss–Markov process can mimic any driven disturbance on the Allan variance, but only the driven
 /// effect names its cause.
 pub const DRIVER_PREFERENCE: f64 = 1.5;
-/// Least windowed-variance likelihood ratio that counts as evidence of a noise change
-/// when no DAVAR event is given (a χ²₂-like statistic: 30 is far beyond chance over the ~10⁶
-/// candidate spans of an hour-long record).
-pub const MIN_BURST_LLR: f64 = 30.0;
 
 /// One suggested effect with what it buys.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -132,10 +128,11 @@ fn evidence_present(kind: &'static dyn EffectKind, input: &AxisInput<'_>) -> boo
         return false;
     }
     match kind.evidence() {
-        Evidence::Events if input.events.is_empty() => {
-            let b = timedomain::find_burst(input.rate, input.tau0);
-            b.strength > MIN_BURST_LLR
-        }
+        // Without DAVAR events, the effect's own time-domain statistic stands in for one: a
+        // windowed-variance change for a burst, a two-window mean contrast for a step (a burst
+        // detector says nothing about a step in the mean).
+        Evidence::Events if input.events.is_empty() => timedomain::estimate(kind, input, input.rate)
+            .is_ok_and(|est| timedomain::is_significant(kind, &est)),
         _ => true,
     }
 }

@@ -16,8 +16,6 @@ pub mod nnls;
 pub mod output;
 pub mod record;
 pub mod spec;
-#[doc(hidden)]
-pub mod testkit;
 pub mod timedomain;
 
 pub use diagnose::{diagnose, Diagnosis, Suggestion};

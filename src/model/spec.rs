@@ -144,7 +144,7 @@ impl fmt::Display for ModelSpec {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::testkit::KINDS;
+    use crate::model::effects::REGISTRY as KINDS;
 
     #[test]
     fn parses_ids_and_aliases_in_order_without_duplicates() {

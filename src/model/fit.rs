@@ -20,7 +20,7 @@
 //! IEEE Std 952-1997, Annex C; Riley, NIST SP 1065 (2008), §5.2.4, Table 12; Lawson & Hanson (1974).
 
 use crate::allan::{AllanPoint, TauGrid};
-use crate::model::effects::{Domain, Effect, EffectKind, ParamError};
+use crate::model::effects::{unit_on_axis, Domain, Effect, EffectKind, ParamError};
 use crate::allan::oavar_rate;
 use crate::model::measure::{chi2_interval, edf_for_mix, NoiseClass};
 use crate::model::nnls::{nnls, NnlsError};
@@ -140,7 +140,7 @@ pub enum FitError {
 pub struct ParamValue {
     /// Contract parameter name, e.g. `frequency_hz`.
     pub name: String,
-    /// SI unit (gyro; read `rad` as `m/s` on an accel axis).
+    /// SI unit on the fitted axis (`rad` read as `m/s` on an accel axis).
     pub unit: String,
     /// Value, SI.
     pub value: f64,
@@ -416,6 +416,9 @@ impl Prepared {
         let sf = fit_curve(&self.points, kinds, opts.weight_iterations)?;
         let mut terms = self.time_terms.clone();
         terms.extend(sf.terms);
+        for p in terms.iter_mut().flat_map(|t| t.params.iter_mut()) {
+            p.unit = unit_on_axis(&p.unit, self.axis);
+        }
         let n_time: usize = self.time_terms.iter().map(|t| t.params.len()).sum();
         Ok(FittedModel {
             axis: self.axis,

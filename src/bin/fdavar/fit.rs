@@ -111,7 +111,7 @@ pub fn outcome(rec: &Recording, fits: &[FittedModel]) -> Outcome {
         .collect();
     if !failing.is_empty() {
         eprintln!(
-            "fdavar: warning: the model fails on {} (fit_error > {FAILING_FIT_ERROR}); try `fdavar diagnose`",
+            "fdavar: warning: the model fails on {} (fit_error > {FAILING_FIT_ERROR}); `fdavar diagnose` suggests what is missing",
             failing.join(", ")
         );
     }

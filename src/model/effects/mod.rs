@@ -122,14 +122,20 @@ impl ParamSpec {
     /// assert_eq!(n.unit_on(Axis::GyroX), "rad/s/sqrt(Hz)");
     /// ```
     pub fn unit_on(&self, axis: crate::signal::Axis) -> String {
-        if axis.is_gyro() {
-            self.unit.to_string()
-        } else {
-            self.unit
-                .replace("rad/s^2", "m/s^3")
-                .replace("rad/s", "m/s^2")
-                .replace("rad", "m/s")
-        }
+        unit_on_axis(self.unit, axis)
+    }
+}
+
+/// A gyro-axis SI unit as it reads on `axis`: unchanged on a gyro, `rad` → `m/s` on an accel axis
+/// (so `rad/s` → `m/s^2`, `rad/s^2` → `m/s^3`).
+pub fn unit_on_axis(gyro_unit: &str, axis: crate::signal::Axis) -> String {
+    if axis.is_gyro() {
+        gyro_unit.to_string()
+    } else {
+        gyro_unit
+            .replace("rad/s^2", "m/s^3")
+            .replace("rad/s", "m/s^2")
+            .replace("rad", "m/s")
     }
 }
 

@@ -290,6 +290,23 @@ fn text(size: u32) -> TextStyle<'static> {
 /// bound stops nonsense input (1e-300 next to 1e300) before plotters tries to tick it.
 pub const MAX_DECADES: u32 = 40;
 
+/// The error for an axis range `lo..hi` that plotters cannot draw, with the reason.
+fn unplottable(
+    figure: &'static str,
+    field: &str,
+    lo: f64,
+    hi: f64,
+    why: &'static str,
+) -> ReportError {
+    ReportError::UnplottableRange {
+        figure,
+        field: field.to_string(),
+        low: lo,
+        high: hi,
+        why,
+    }
+}
+
 /// Checks that `lo..hi` (both > 0) fits on one log axis: at most [`MAX_DECADES`], and inside
 /// 1e-300..1e300 so that padding and rounding to decades cannot overflow to 0 or ∞ (plotters'
 /// tick code never returns on an infinite range).
@@ -301,13 +318,7 @@ fn check_log_span(figure: &'static str, field: &str, lo: f64, hi: f64) -> Result
     } else {
         return Ok(());
     };
-    Err(ReportError::UnplottableRange {
-        figure,
-        field: field.to_string(),
-        low: lo,
-        high: hi,
-        why,
-    })
+    Err(unplottable(figure, field, lo, hi, why))
 }
 
 /// Checks that `lo..hi` can be a linear axis: within ±1e300 and a span of at least 10⁻⁹ of its
@@ -325,13 +336,7 @@ fn check_linear_span(
     } else {
         return Ok(());
     };
-    Err(ReportError::UnplottableRange {
-        figure,
-        field: field.to_string(),
-        low: lo,
-        high: hi,
-        why,
-    })
+    Err(unplottable(figure, field, lo, hi, why))
 }
 
 /// A log-axis range for data spanning `lo..hi` (both > 0) that shows labelled decades.

@@ -6,7 +6,7 @@
 //!    measurement within its scatter gets no suggestion — false alarms cost as much as misses);
 //! 2. the extra parameters pay for themselves: Δχ² > [`PENALTY_PER_PARAM`]·p·ln K, a BIC penalty
 //!    scaled for the correlation of overlapping estimates at neighbouring τ (about 3 independent
-//!    points per 10 — the same factor as [`crate::model::fit::CORRELATION_INFLATION`]);
+//!    points per 10 — see [`crate::model::fit::tau_correlation`]);
 //! 3. effect-size sanity: fit_error falls by at least [`MIN_IMPROVEMENT`]×, and a new spectral
 //!    amplitude is at least 2σ from zero.
 //!
@@ -141,8 +141,8 @@ fn evidence_present(kind: &'static dyn EffectKind, input: &AxisInput<'_>) -> boo
 ///
 /// A whole-record Allan variance is linear in the local variances, so a burst of white noise only
 /// raises the white level; a single bias step gives a τ¹ law indistinguishable from a rate random
-/// walk; a warm-up drift hides in the random walk and flicker terms. None of them can show in
-/// fit_error, so they are judged by their estimator's own statistic
+/// walk; a warm-up drift hides in the random walk and flicker terms. Only the span check of
+/// fit_error sees them, and only when they are strong, so they are judged by their estimator's own statistic
 /// ([`timedomain::is_significant`]) and an effect-size check (a burst factor ≥ 1.2).
 fn score_time_domain(
     kind: &'static dyn EffectKind,

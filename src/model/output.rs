@@ -2,7 +2,8 @@
 //!
 //! `{"axes": [{"axis", "model": [names], "fit_error", "coefficients": {effect: {param: value}},
 //! "failing_tau": [[lo, hi]], "events": [{"effect", ...params}], "suggestions": [{"effect",
-//! "params": {...}, "fit_error_after", "explanation"}]}]}`; `fit` omits `suggestions`.
+//! "params": {...}, "fit_error_after", "explanation"}]}]}`; `fit` omits `suggestions`. Beyond the
+//! contract, each axis also has `"failing_spans": [[start_s, end_s]]`: where in time the model fails.
 //! Values are SI. Plain data, built from a [`FittedModel`] / [`Diagnosis`]; no I/O here.
 
 use crate::model::diagnose::Diagnosis;
@@ -31,6 +32,8 @@ pub struct AxisReport {
     pub coefficients: Map<String, Value>,
     /// **contract** failing τ intervals, seconds.
     pub failing_tau: Vec<[f64; 2]>,
+    /// Time intervals (seconds from the first sample) where the spans' fit_error exceeds 3.
+    pub failing_spans: Vec<[f64; 2]>,
     /// Events: `{"effect": id, param: value, …}`.
     pub events: Vec<Map<String, Value>>,
     /// Suggestions, best first (diagnose only).
@@ -72,6 +75,11 @@ impl AxisReport {
             fit_error: fit.fit_error,
             coefficients,
             failing_tau: fit.failing_tau.clone(),
+            failing_spans: fit
+                .failing_spans
+                .iter()
+                .map(|s| [s.start_s, s.end_s])
+                .collect(),
             events,
             suggestions: None,
         }

@@ -186,8 +186,25 @@ pub fn write_fit(w: &mut dyn Write, f: &FittedModel) -> std::io::Result<()> {
             .collect();
         writeln!(w, "  failing tau: {}", spans.join(", "))?;
     }
+    if !f.failing_spans.is_empty() {
+        let spans: Vec<String> = f
+            .failing_spans
+            .iter()
+            .map(|s| format!("{:.1}-{:.1} s", s.start_s, s.end_s))
+            .collect();
+        writeln!(
+            w,
+            "  failing in time: {} (whole record alone: fit_error {:.2})",
+            spans.join(", "),
+            f.whole_fit_error
+        )?;
+    }
     for e in &f.events {
-        let ps: Vec<String> = e.params.iter().map(|(k, v)| format!("{k}={v:.4}")).collect();
+        let ps: Vec<String> = e
+            .params
+            .iter()
+            .map(|(k, v)| format!("{k}={v:.4}"))
+            .collect();
         writeln!(w, "  event: {} {}", e.effect, ps.join(" "))?;
     }
     Ok(())

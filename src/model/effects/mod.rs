@@ -26,7 +26,7 @@ pub use bias_step::BiasStep;
 pub use g_sensitivity::GSensitivity;
 pub use gauss_markov::GaussMarkov;
 pub use noise_burst::NoiseBurst;
-pub use quantization::Quantization;
+pub use quantization::{rounding_excess, Quantization};
 pub use ramp::Ramp;
 pub use random_walk::RandomWalk;
 pub use sinusoid::Sinusoid;

@@ -119,7 +119,7 @@ impl Quantization {
     /// ```
     pub fn avar_undithered(&self, tau: f64, mean_rate: f64, noise: &dyn Fn(f64) -> f64) -> f64 {
         let step = self.q * 12f64.sqrt();
-        if step <= 0.0 || !(tau > 0.0) {
+        if step <= 0.0 || tau.is_nan() || tau <= 0.0 {
             return 0.0;
         }
         let h = |t: f64| rounding_excess(mean_rate * t / step, noise(t).max(0.0) / (step * step));
@@ -156,7 +156,7 @@ impl Quantization {
 pub fn rounding_excess(mu: f64, v: f64) -> f64 {
     use std::f64::consts::PI;
     let mu = mu - mu.floor();
-    if !(v > 0.0) || !mu.is_finite() {
+    if v.is_nan() || v <= 0.0 || !mu.is_finite() {
         return if mu.is_finite() { mu * (1.0 - mu) } else { 1.0 / 6.0 };
     }
     if v >= SERIES_FROM_V {

@@ -2,7 +2,7 @@
 
 use super::{
     check_params, params_of, Domain, Effect, EffectKind, Evidence, Explanation, KindInfo, Param,
-    ParamError, ParamSpec, SimContext, SimStage,
+    OutputContext, ParamError, ParamSpec, SimContext, SimStage,
 };
 use rand::RngCore;
 
@@ -203,6 +203,9 @@ impl Effect for Quantization {
     }
     fn avar(&self, tau: f64) -> Option<f64> {
         Some(3.0 * self.q * self.q / (tau * tau))
+    }
+    fn avar_on(&self, tau: f64, rest: &OutputContext<'_>) -> Option<f64> {
+        Some(self.avar_undithered(tau, rest.mean_rate, rest.noise))
     }
     fn simulate(&self, ctx: &SimContext<'_>, _rng: &mut dyn RngCore, out: &mut [f64]) {
         let lsb = self.lsb(ctx.dt);

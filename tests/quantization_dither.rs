@@ -144,3 +144,21 @@ fn fit_recovers_quantization_in_both_regimes() {
     workbench(95, 200.0, 20.0, Axis::AccelZ, 2e-4, true);
     workbench(96, 100.0, 20.0, Axis::AccelZ, 1e-3, true);
 }
+
+#[test]
+fn clean_recording_with_gravity_gets_no_quantization() {
+    // The mean sweep of accel_z must not let the undithered signature explain noise patterns.
+    use fdavar::model::{diagnose, FitOptions, ModelSpec};
+    use model_common::KINDS;
+    for seed in [98, 99] {
+        let yaml = model_common::spec_yaml(seed, 200.0, 20.0, &[], &[]).replacen("axes:", "gravity: true\naxes:", 1);
+        let sim = fdavar::sim::simulate(&fdavar::sim::SimSpec::from_yaml(&yaml).unwrap()).unwrap();
+        let rec = model_common::Recording::from_samples(&sim.imu, &sim.temperature).unwrap();
+        let nbk = ModelSpec::parse_in("N,B,K", KINDS).unwrap();
+        for a in Axis::ALL {
+            let d = diagnose(&rec.input(a), &nbk, KINDS, &FitOptions::default()).unwrap();
+            let names: Vec<&str> = d.suggestions.iter().map(|s| s.effect.as_str()).collect();
+            assert!(names.is_empty(), "seed {seed}: {a} got {names:?} (fit_error {:.2})", d.fit.fit_error);
+        }
+    }
+}

@@ -497,6 +497,13 @@ impl SampleContext {
     }
 }
 
+/// Log step of the scan over an output column's amplitude when no mean sweep is visible.
+const SCAN_STEP: f64 = 0.02;
+/// Most trial amplitudes in one scan (a strong sweep needs ~2000 for [q₀/2, 3q₀]).
+const MAX_SCAN: usize = 4000;
+/// Dither per sample (steps²) below which the phase of the mean sweep is visible:
+/// exp(−2π²·0.7) ≈ 1e-6.
+const PHASE_VISIBLE_V: f64 = 0.7;
 /// Rounds of "recompute the dither from the other terms, refit them" at each trial amplitude of
 /// an output column (the profile over the other amplitudes).
 const PROFILE_ROUNDS: usize = 3;
@@ -736,6 +743,15 @@ impl<'a> Problem<'a> {
         Ok(sum)
     }
 
+    /// Angle structure function τ²·Σ σ²_i(τ) of the non-output columns at amplitudes √c.
+    fn other_noise(&self, shapes: &[f64], c: &[f64], tau: f64) -> Result<f64, FitError> {
+        let mut sum = 0.0;
+        for i in (0..self.columns.len()).filter(|&i| !self.is_output(i) && c[i] > 0.0) {
+            sum += self.build(i, c[i].sqrt(), shapes)?.avar(tau).unwrap_or(0.0).max(0.0);
+        }
+        Ok(tau * tau * sum)
+    }
+
     /// Σ of the output columns' curves at `state`.
     fn output_curves(&self, shapes: &[f64], state: &OutputState) -> Result<Vec<f64>, FitError> {
         let mut sum = vec![0.0; self.points.len()];
@@ -794,19 +810,35 @@ impl<'a> Problem<'a> {
             if q0 <= 0.0 {
                 continue;
             }
+            // The phase of the mean sweep matters only while the dither per sample is below a
+            // step (exp(−2π²v₁) is its weight); then the scan must resolve 1/μ₁ in ln q.
+            let step_max = 3.0 * q0 * 12f64.sqrt();
+            let v1 = self.other_noise(shapes, &best_c, tau_min)? / (step_max * step_max);
             let mu1 = mean_rate.abs() * tau_min / (q0 * 12f64.sqrt());
-            let step = (0.02f64).min(0.25 / (4.0 * mu1).max(1e-9));
-            let (lo, hi) = ((0.5 * q0).ln(), (3.0 * q0).ln());
-            let n = ((hi - lo) / step).ceil() as usize;
+            let step = if v1 < PHASE_VISIBLE_V {
+                SCAN_STEP.min(0.06 / mu1.max(1e-9))
+            } else {
+                SCAN_STEP
+            };
+            let (mut lo, mut hi) = ((0.5 * q0).ln(), (3.0 * q0).ln());
             let mut start = best_c.clone();
             let mut scan_best = (f64::INFINITY, lo);
-            for i in 0..=n {
-                let lq = lo + (hi - lo) * i as f64 / n as f64;
-                let (cost, s) = self.profile(j, lq.exp(), &start, &scale, mean_rate, shapes, iters)?;
-                start = s.c.clone();
-                if cost < scan_best.0 {
-                    scan_best = (cost, lq);
+            // Extend the scan upwards while its best is at the top (a deeply undithered
+            // quantizer looks far smaller to the IEEE law than it is), at most to 100·q₀.
+            for _ in 0..4 {
+                let n = (((hi - lo) / step).ceil() as usize).clamp(1, MAX_SCAN);
+                for i in 0..=n {
+                    let lq = lo + (hi - lo) * i as f64 / n as f64;
+                    let (cost, s) = self.profile(j, lq.exp(), &start, &scale, mean_rate, shapes, iters)?;
+                    start = s.c.clone();
+                    if cost < scan_best.0 {
+                        scan_best = (cost, lq);
+                    }
                 }
+                if scan_best.1 < hi - 1.5 * step || hi > (100.0 * q0).ln() {
+                    break;
+                }
+                (lo, hi) = (hi, hi + 3f64.ln());
             }
             let (mut a, mut b) = (scan_best.1 - step, scan_best.1 + step);
             let g = 0.618_033_988_749_895;

@@ -39,8 +39,8 @@ pub(super) static KIND: KindInfo = KindInfo {
 /// ```
 /// where y is the sum of the axis's other effects (rate), Δ the rate LSB, τ0 the sample period and
 /// δ the angle step. Every output value is a whole multiple of Δ and the angle Σ y_out·τ0 is the true
-/// angle rounded to δ, so its error e[n] has variance q² and σ²(τ) = E[(e[i+2m] − 2e[i+m] + e[i])²] /
-/// (2τ²) = 6q²/(2τ²). Rounding each rate sample on its own (no carry) was rejected: its error is
+/// angle rounded to δ, so its error `e[n]` has variance q² and `σ²(τ) = E[(e[i+2m] − 2e[i+m] + e[i])²] /
+/// (2τ²)` = 6q²/(2τ²). Rounding each rate sample on its own (no carry) was rejected: its error is
 /// white *rate* noise of variance Δ²/12, an N term (σ² ∝ 1/τ), not the Q term.
 ///
 /// # References
@@ -129,7 +129,7 @@ impl Quantization {
 
 /// The mean excess E[f·(1 − f)], f = frac(d), of a rounded increment d ~ N(`mu`, `v`) in steps.
 ///
-/// E[(round(u + d) − round(u))²] = E[d²] + E[f·(1 − f)] for a uniform phase u: this is the term
+/// `E[(round(u + d) − round(u))²] = E[d²] + E[f·(1 − f)]` for a uniform phase u: this is the term
 /// the rounding adds to the structure function of the angle (see
 /// [`Quantization::avar_undithered`]). It is 1/6 when d spreads over many steps (white rounding)
 /// and ≈ √(2v/π) − v when μ = 0 and v ≪ 1 (the rounded angle rarely moves).

@@ -823,16 +823,21 @@ impl<'a> Problem<'a> {
             let (mut lo, mut hi) = ((0.5 * q0).ln(), (3.0 * q0).ln());
             let mut start = best_c.clone();
             let mut scan_best = (f64::INFINITY, lo);
+            let mut refine_from = best_c.clone();
+            // A fine scan moves q by < 1 % a step, so one round from the previous trial's
+            // amplitudes follows the others closely enough (the refinement does all rounds).
+            let scan_rounds = if step < SCAN_STEP { 1 } else { PROFILE_ROUNDS };
             // Extend the scan upwards while its best is at the top (a deeply undithered
             // quantizer looks far smaller to the IEEE law than it is), at most to 100·q₀.
             for _ in 0..4 {
                 let n = (((hi - lo) / step).ceil() as usize).clamp(1, MAX_SCAN);
                 for i in 0..=n {
                     let lq = lo + (hi - lo) * i as f64 / n as f64;
-                    let (cost, s) = self.profile(j, lq.exp(), &start, &scale, mean_rate, shapes, iters)?;
+                    let (cost, s) = self.profile(j, lq.exp(), &start, &scale, mean_rate, shapes, iters, scan_rounds)?;
                     start = s.c.clone();
                     if cost < scan_best.0 {
                         scan_best = (cost, lq);
+                        refine_from.clone_from(&s.c);
                     }
                 }
                 if scan_best.1 < hi - 1.5 * step || hi > (100.0 * q0).ln() {
@@ -844,8 +849,8 @@ impl<'a> Problem<'a> {
             let g = 0.618_033_988_749_895;
             for _ in 0..24 {
                 let (x1, x2) = (b - g * (b - a), a + g * (b - a));
-                let f1 = self.profile(j, x1.exp(), &best_c, &scale, mean_rate, shapes, iters)?.0;
-                let f2 = self.profile(j, x2.exp(), &best_c, &scale, mean_rate, shapes, iters)?.0;
+                let f1 = self.profile(j, x1.exp(), &refine_from, &scale, mean_rate, shapes, iters, PROFILE_ROUNDS)?.0;
+                let f2 = self.profile(j, x2.exp(), &refine_from, &scale, mean_rate, shapes, iters, PROFILE_ROUNDS)?.0;
                 if f1 < f2 {
                     b = x2;
                 } else {
@@ -853,12 +858,12 @@ impl<'a> Problem<'a> {
                 }
             }
             let mid = 0.5 * (a + b);
-            let lq = if self.profile(j, mid.exp(), &best_c, &scale, mean_rate, shapes, iters)?.0 <= scan_best.0 {
+            let lq = if self.profile(j, mid.exp(), &refine_from, &scale, mean_rate, shapes, iters, PROFILE_ROUNDS)?.0 <= scan_best.0 {
                 mid
             } else {
                 scan_best.1
             };
-            let (cost, s) = self.profile(j, lq.exp(), &best_c, &scale, mean_rate, shapes, iters)?;
+            let (cost, s) = self.profile(j, lq.exp(), &refine_from, &scale, mean_rate, shapes, iters, PROFILE_ROUNDS)?;
             best_c = s.c.clone();
             best = Some((cost, s));
         }
@@ -883,10 +888,11 @@ impl<'a> Problem<'a> {
         mean_rate: f64,
         shapes: &[f64],
         iters: usize,
+        rounds: usize,
     ) -> Result<(f64, Solution), FitError> {
         let mut c = start.to_vec();
         let mut edf = Vec::new();
-        for _ in 0..PROFILE_ROUNDS {
+        for _ in 0..rounds.max(1) {
             c[j] = q * q;
             let mut state = OutputState { mean_rate, c: c.clone(), fixed: true, jacobian: Vec::new() };
             state.jacobian = self.output_jacobian(shapes, &state, scale)?;

@@ -26,7 +26,7 @@ pub use bias_step::BiasStep;
 pub use g_sensitivity::GSensitivity;
 pub use gauss_markov::GaussMarkov;
 pub use noise_burst::NoiseBurst;
-pub use quantization::Quantization;
+pub use quantization::{rounding_excess, Quantization};
 pub use ramp::Ramp;
 pub use random_walk::RandomWalk;
 pub use sinusoid::Sinusoid;
@@ -359,6 +359,26 @@ pub struct SimContext<'a> {
     pub accel: Option<[&'a [f64]; 3]>,
 }
 
+/// What the rest of an axis does to its output, for the signature of an output effect.
+///
+/// See [`Effect::avar_on`]; built by the fitter from the samples and its other fitted terms.
+#[derive(Clone, Copy)]
+pub struct OutputContext<'a> {
+    /// Mean of the rate samples, SI (gravity on an accel axis sweeps the angle steadily).
+    pub mean_rate: f64,
+    /// Structure function D(τ) = E[(θ(t+τ) − θ(t))²] of the angle (integrated rate) noise of
+    /// the other effects, rad² (m² on an accel axis), at τ seconds, without the mean sweep.
+    pub noise: &'a dyn Fn(f64) -> f64,
+}
+
+impl Debug for OutputContext<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("OutputContext")
+            .field("mean_rate", &self.mean_rate)
+            .finish_non_exhaustive()
+    }
+}
+
 /// One physical effect with its parameter values.
 pub trait Effect: Debug + Send + Sync {
     /// The kind this effect is one of.
@@ -367,6 +387,16 @@ pub trait Effect: Debug + Send + Sync {
     fn params(&self) -> Vec<Param>;
     /// Allan variance contribution at τ seconds for rate data, for [`Domain::Spectral`] effects.
     fn avar(&self, tau: f64) -> Option<f64>;
+    /// Allan variance contribution at τ on an axis whose other effects `rest` describes.
+    ///
+    /// An output effect ([`SimStage::Output`]) acts on what the others produce, so its signature
+    /// can depend on them: a quantizer is seen fully (the IEEE law) only when the other noise
+    /// dithers it. The fitter calls this for output effects when it knows the samples' mean;
+    /// every other effect keeps the default, [`Effect::avar`].
+    fn avar_on(&self, tau: f64, rest: &OutputContext<'_>) -> Option<f64> {
+        let _ = rest;
+        self.avar(tau)
+    }
     /// Applies the effect to `out`, one axis of rate samples: additive effects add, quantization
     /// rounds. Deterministic effects ignore `rng`, so simulating on zeros gives their time-domain form.
     fn simulate(&self, ctx: &SimContext<'_>, rng: &mut dyn RngCore, out: &mut [f64]);

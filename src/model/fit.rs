@@ -1266,12 +1266,26 @@ impl<'a> Problem<'a> {
     /// Jᵀ·R⁻¹·J at the solution (active amplitudes only), scaled by max(1, χ²/dof), where R is the
     /// correlation of the Allan estimates between τ points ([`tau_correlation`]).
     fn covariance(&self, shapes: &[f64], sol: &Solution) -> Option<Vec<Option<f64>>> {
+        // An amplitude at its bound (0) still gets the curvature of the cost there: its σ says how
+        // large the term could be (reported as √σ_c). Should that make the matrix singular, the
+        // bound terms are left out.
+        let at_bound = |j: usize| sol.c[j] <= 0.0 && self.columns[j].shapes.is_empty();
+        self.covariance_of(shapes, sol, |j| sol.c[j] > 0.0 || at_bound(j))
+            .or_else(|| self.covariance_of(shapes, sol, |j| sol.c[j] > 0.0))
+    }
+
+    fn covariance_of(
+        &self,
+        shapes: &[f64],
+        sol: &Solution,
+        included: impl Fn(usize) -> bool,
+    ) -> Option<Vec<Option<f64>>> {
         let k = self.points.len();
         let jn = self.columns.len();
         let sd: Vec<f64> = (0..k)
             .map(|i| sol.model[i].max(f64::MIN_POSITIVE) * (2.0 / sol.edf[i]).sqrt())
             .collect();
-        let active: Vec<usize> = (0..jn).filter(|&j| sol.c[j] > 0.0).collect();
+        let active: Vec<usize> = (0..jn).filter(|&j| included(j)).collect();
         let mut cols: Vec<Vec<f64>> = active
             .iter()
             .map(|&j| (0..k).map(|i| sol.basis[j][i] / sd[i]).collect())

@@ -143,7 +143,8 @@ fn evidence_present(kind: &'static dyn EffectKind, input: &AxisInput<'_>) -> boo
 /// raises the white level; a single bias step gives a τ¹ law indistinguishable from a rate random
 /// walk; a warm-up drift hides in the random walk and flicker terms. Only the span check of
 /// fit_error sees them, and only when they are strong, so they are judged by their estimator's own statistic
-/// ([`timedomain::is_significant`]) and an effect-size check (a burst factor ≥ 1.2).
+/// ([`timedomain::is_significant`]), an effect-size check (a burst factor ≥ 1.2), and fit_error
+/// must fall at least [`MIN_IMPROVEMENT`]×.
 fn score_time_domain(
     kind: &'static dyn EffectKind,
     input: &AxisInput<'_>,
@@ -155,6 +156,11 @@ fn score_time_domain(
         return None;
     }
     if kind.id() == "noise_burst" && est.values.get(2).is_none_or(|&f| f < 1.2) {
+        return None;
+    }
+    // The refit must also explain the record better (its spans, above all): a small "step" found
+    // inside a burst is significant on its own statistic and changes nothing.
+    if after.fit_error * MIN_IMPROVEMENT > before.fit_error {
         return None;
     }
     let term = after.term(kind.id())?;

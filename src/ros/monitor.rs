@@ -10,7 +10,7 @@
 
 use crate::msgs::builtin_interfaces::Time;
 use crate::msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue, Level};
-use crate::msgs::fdavar_msgs::AxisState;
+use crate::msgs::fdavar_msgs::{AxisState, Suggestion};
 use crate::msgs::std_msgs::Header;
 use crate::signal::{Axis, ImuSample, PeriodEstimator, StampCheck, StampClass};
 
@@ -33,6 +33,13 @@ pub trait RowEngine: Send {
     /// failing_tau). Called at the publishing rate on the latest row of each axis, not per row:
     /// a fit costs far more than a row.
     fn fit(&self, _state: &mut AxisState) {}
+
+    /// The effects the model in force lacks on `axis` over the whole run so far, best first.
+    /// Far costlier than [`RowEngine::fit`] (one refit per candidate effect): the monitor calls
+    /// it every `diagnosis_period_s`, one axis per publication.
+    fn diagnose(&self, _axis: Axis) -> Vec<Suggestion> {
+        Vec::new()
+    }
 }
 
 /// A live change for the engine.
@@ -112,6 +119,8 @@ pub struct MonitorSettings {
     pub stale_timeout_s: f64,
     /// fit_error above this is a failing model: WARN.
     pub fit_error_warn: f64,
+    /// Seconds of node time between two diagnoses of each axis (0: no diagnosis).
+    pub diagnosis_period_s: f64,
 }
 
 impl Default for MonitorSettings {
@@ -119,6 +128,7 @@ impl Default for MonitorSettings {
         MonitorSettings {
             stale_timeout_s: 1.0,
             fit_error_warn: 3.0,
+            diagnosis_period_s: 10.0,
         }
     }
 }
@@ -148,6 +158,12 @@ pub struct Monitor {
     receive_time_stamps: Option<bool>,
     /// Rows kept for [`Monitor::drain_rows`] when recording is on.
     new_rows: Option<Vec<AxisState>>,
+    /// The latest diagnosis of each axis.
+    suggestions: [Vec<Suggestion>; 6],
+    /// Node time the last diagnosis round started, ns.
+    last_diagnosis_ns: Option<i64>,
+    /// Axes of the current round still to diagnose (one per publication).
+    diagnosis_due: Vec<Axis>,
 }
 
 impl Monitor {
@@ -170,6 +186,9 @@ impl Monitor {
             recent_non_finite: [0; 6],
             new_rows: None,
             receive_time_stamps: None,
+            suggestions: Default::default(),
+            last_diagnosis_ns: None,
+            diagnosis_due: Vec::new(),
         }
     }
 
@@ -188,6 +207,10 @@ impl Monitor {
 
     /// Changes the settings (live parameters).
     pub fn set_settings(&mut self, settings: MonitorSettings) {
+        if settings.diagnosis_period_s == 0.0 {
+            self.suggestions = Default::default();
+            self.diagnosis_due.clear();
+        }
         self.settings = settings;
     }
 
@@ -196,9 +219,41 @@ impl Monitor {
     /// # Errors
     /// The engine's reason, or that no engine runs.
     pub fn reconfigure(&mut self, change: Change) -> Result<(), String> {
+        let new_model = matches!(change, Change::Model(_));
         match self.engine.as_mut() {
-            Some(e) => e.reconfigure(change),
-            None => Err("no F-DAVAR engine in this build".to_string()),
+            Some(e) => e.reconfigure(change)?,
+            None => return Err("no F-DAVAR engine in this build".to_string()),
+        }
+        if new_model {
+            // Suggestions name what the old model lacked: diagnose the new one at once.
+            self.suggestions = Default::default();
+            self.last_diagnosis_ns = None;
+        }
+        Ok(())
+    }
+
+    /// Diagnoses the next axis due, if any: a round of all six axes starts every
+    /// `diagnosis_period_s` of node time, one axis per call, so that a publication never waits
+    /// for more than one axis's diagnosis (the samples queue meanwhile).
+    fn diagnose_next(&mut self, now_ns: i64) {
+        let period = self.settings.diagnosis_period_s;
+        let Some(engine) = self.engine.as_ref().filter(|_| period > 0.0) else {
+            return;
+        };
+        // Due after a period, at start, and when the node's time went backwards (sim time reset).
+        let due = self
+            .last_diagnosis_ns
+            .is_none_or(|t| now_ns < t || (now_ns - t) as f64 * 1e-9 >= period);
+        if due && self.diagnosis_due.is_empty() {
+            self.last_diagnosis_ns = Some(now_ns);
+            self.diagnosis_due = Axis::ALL.iter().rev().copied().collect();
+        }
+        // Only axes with a row: before that the whole run is too short to say anything.
+        while let Some(axis) = self.diagnosis_due.pop() {
+            if self.latest[axis.index()].is_some() {
+                self.suggestions[axis.index()] = engine.diagnose(axis);
+                return;
+            }
         }
     }
 
@@ -329,6 +384,7 @@ impl Monitor {
         now_ns: i64,
     ) -> (DiagnosticArray, Vec<AxisState>, Option<&'static str>) {
         let log = self.close_rate_window();
+        self.diagnose_next(now_ns);
         let stale = match self.last_receive_ns {
             None => Some("no IMU message received yet".to_string()),
             Some(t) if (now_ns - t) as f64 * 1e-9 > self.settings.stale_timeout_s => Some(format!(
@@ -349,6 +405,7 @@ impl Monitor {
                 if let Some(engine) = &self.engine {
                     engine.fit(&mut s);
                 }
+                s.suggestions.clone_from(&self.suggestions[i]);
                 s
             });
             let latest = fitted.as_ref();
@@ -396,6 +453,17 @@ impl Monitor {
                         format!(
                             "model fails: fit_error {:.2}; suggestions: [{}]",
                             s.fit_error,
+                            suggestions.join(", ")
+                        ),
+                    )
+                } else if let Some(best) = s.suggestions.first() {
+                    (
+                        Level::Warn,
+                        format!(
+                            "model lacks {} over the whole run (whole-run fit_error {:.2} with \
+                             it); suggestions: [{}]",
+                            best.effect,
+                            best.fit_error_after,
                             suggestions.join(", ")
                         ),
                     )

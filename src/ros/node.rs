@@ -458,6 +458,7 @@ pub fn run(
     let drops = Arc::new(AtomicU64::new(0));
     let settings = MonitorSettings {
         stale_timeout_s: config.double("stale_timeout_s"),
+        diagnosis_period_s: config.double("diagnosis_period_s"),
         ..MonitorSettings::default()
     };
     let mut monitor = Monitor::new(settings, engine);
@@ -764,6 +765,10 @@ impl Analysis {
             }
             ("stale_timeout_s", ParameterValue::Double(s)) => {
                 self.settings.stale_timeout_s = *s;
+                self.monitor.set_settings(self.settings);
+            }
+            ("diagnosis_period_s", ParameterValue::Double(s)) => {
+                self.settings.diagnosis_period_s = *s;
                 self.monitor.set_settings(self.settings);
             }
             ("model", ParameterValue::String(s)) => {

@@ -137,9 +137,9 @@ pub fn diagnose_curve(
     let before = fit_curve(points, model, weight_iterations)?;
     let mut scored: Vec<(Suggestion, ())> = Vec::new();
     if before.fit_error > COMPLETE_FIT_ERROR {
-        let lacking = registry.iter().filter(|k| {
-            k.domain() == Domain::Spectral && !model.iter().any(|m| m.id() == k.id())
-        });
+        let lacking = registry
+            .iter()
+            .filter(|k| k.domain() == Domain::Spectral && !model.iter().any(|m| m.id() == k.id()));
         for &kind in lacking {
             let mut kinds = model.to_vec();
             kinds.push(kind);
@@ -230,8 +230,10 @@ fn evidence_present(kind: &'static dyn EffectKind, input: &AxisInput<'_>) -> boo
         // Without DAVAR events, the effect's own time-domain statistic stands in for one: a
         // windowed-variance change for a burst, a two-window mean contrast for a step (a burst
         // detector says nothing about a step in the mean).
-        Evidence::Events if input.events.is_empty() => timedomain::estimate(kind, input, input.rate)
-            .is_ok_and(|est| timedomain::is_significant(kind, &est)),
+        Evidence::Events if input.events.is_empty() => {
+            timedomain::estimate(kind, input, input.rate)
+                .is_ok_and(|est| timedomain::is_significant(kind, &est))
+        }
         _ => true,
     }
 }

@@ -12,6 +12,9 @@ Scenarios:
   sim_time     publish rosgraph_msgs/Clock on /clock and see the node's /diagnostics stamps follow it.
   bad_input    publish NaN, backwards, duplicate and zero stamps, a gap, then go silent; the node
                must count each kind and report stale input as ERROR.
+  suggestions N  while `fdavar play` replays N samples, wait until the node counted them, then
+               report each axis's suggestions, level and message from /diagnostics (and the typed
+               ~/gyro_x/state suggestions when fdavar_msgs is importable); the test judges them.
 """
 import json
 import math
@@ -397,13 +400,56 @@ def scenario_model(peer):
            after=after, results=results, ratio=b / a if a > 0 else None)
 
 
+AXES = ["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"]
+
+
+def scenario_suggestions(peer):
+    want = int(sys.argv[2])
+    if not peer.wait_for_node():
+        finish(False, "fdavar not in the node graph")
+    typed = []
+    try:
+        from fdavar_msgs.msg import AxisState  # built by colcon from msg/
+        peer.create_subscription(AxisState, f"{NODE}/gyro_x/state", typed.append, 10)
+        have_typed = True
+    except ImportError:
+        have_typed = False
+
+    def counted():
+        return bool(peer.diagnostics) and int(
+            kv(status(peer.diagnostics[-1], "gyro_x"), "samples")) >= want
+
+    if not peer.spin_until(counted, 90.0):
+        finish(False, f"the node did not count {want} samples")
+    # A whole diagnosis round after the last sample (the test sets diagnosis_period_s 1 s and
+    # publishes at 10 Hz: six axes in 0.6 s).
+    peer.spin_until(lambda: False, 3.0)
+    last = peer.diagnostics[-1]
+    result = {
+        "suggestions": {a: kv(status(last, a), "suggestions") for a in AXES},
+        "levels": {a: level(status(last, a)) for a in AXES},
+        "messages": {a: status(last, a).message for a in AXES},
+        "have_typed": have_typed,
+    }
+    if have_typed:
+        if not typed:
+            finish(False, "no fdavar_msgs/AxisState on ~/gyro_x/state", **result)
+        result["typed"] = [
+            {"effect": x.effect, "fit_error_after": x.fit_error_after,
+             "explanation": x.explanation,
+             "params": {p.name: [p.value, p.unit] for p in x.params}}
+            for x in typed[-1].suggestions]
+    finish(True, "", **result)
+
+
 def main():
     rclpy.init()
     peer = Peer()
     scenario = sys.argv[1]
     {"diagnostics": scenario_diagnostics, "params": scenario_params,
      "sim_time": scenario_sim_time, "bad_input": scenario_bad_input, "flood": scenario_flood,
-     "expect_samples": scenario_expect_samples, "model": scenario_model}[scenario](peer)
+     "expect_samples": scenario_expect_samples, "model": scenario_model,
+     "suggestions": scenario_suggestions}[scenario](peer)
 
 
 if __name__ == "__main__":

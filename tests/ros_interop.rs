@@ -667,21 +667,63 @@ fn live_rows_equal_offline_rows_for_a_replayed_recording() {
     }
 }
 
+/// Skips (prints why) or, under `FDAVAR_REQUIRE_PYTHON=1`, panics.
+fn skip(why: &str) {
+    assert!(
+        std::env::var("FDAVAR_REQUIRE_PYTHON").as_deref() != Ok("1"),
+        "{why}"
+    );
+    eprintln!("skipped: {why}");
+}
+
 #[test]
-fn colcon_workspace_has_the_node_where_ros2_run_looks_and_importable_messages() {
-    // Built by `.ci/setup-ros.sh` (colcon build of the repository as a workspace package).
+fn colcon_build_of_the_workspace_installs_the_node_where_ros2_run_looks_and_the_messages() {
+    // The workspace `.ci/setup-ros.sh` prepares: target/colcon_ws/src/{fdavar -> this repository,
+    // fdavar_msgs -> msg/}; colcon-ros-cargo's cargo build goes to this crate's target/, so an
+    // up-to-date tree builds in seconds.
     let Some(py) = python() else { return };
-    let install = crate_root().join("target/colcon_ws/install");
-    let node = install.join("fdavar/lib/fdavar/fdavar_node");
-    if !node.is_file() {
-        let why = format!("{} missing: run .ci/setup-ros.sh .venv", node.display());
-        assert!(
-            std::env::var("FDAVAR_REQUIRE_PYTHON").as_deref() != Ok("1"),
-            "{why}"
-        );
-        eprintln!("skipped: {why}");
-        return;
+    let venv = py.parent().and_then(Path::parent).unwrap().to_path_buf();
+    let ws = crate_root().join("target/colcon_ws");
+    let holds_repo = std::fs::canonicalize(ws.join("src/fdavar"))
+        .is_ok_and(|p| Some(p) == std::fs::canonicalize(crate_root()).ok());
+    if !holds_repo {
+        return skip(&format!(
+            "{} does not hold this repository: run .ci/setup-ros.sh .venv",
+            ws.display()
+        ));
     }
+    let has_colcon = Command::new(&py)
+        .args(["-c", "import colcon_core, colcon_ros_cargo"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !has_colcon {
+        return skip(&format!("{} cannot import colcon", py.display()));
+    }
+    let install = ws.join("install");
+    let node = install.join("fdavar/lib/fdavar/fdavar_node");
+    // Removed first, so that finding it afterwards shows this build installed it (nothing else
+    // runs the installed copy: the other tests run cargo's binaries).
+    let _ = std::fs::remove_file(&node);
+    let start = Instant::now();
+    let out = Command::new("bash")
+        .arg("-c")
+        .arg(format!(
+            ". {}/bin/activate && export AMENT_PREFIX_PATH=$VIRTUAL_ENV && cd {} && \
+             colcon build --packages-select fdavar_msgs fdavar --event-handlers console_direct-",
+            venv.display(),
+            ws.display()
+        ))
+        .output()
+        .expect("run colcon build");
+    let said = String::from_utf8_lossy(&out.stdout);
+    eprintln!(
+        "colcon build: {:.1} s\n{said}{}",
+        start.elapsed().as_secs_f64(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.status.success(), "colcon build failed");
+    assert!(said.contains("2 packages finished"), "{said}");
+    assert!(node.is_file(), "{} not installed", node.display());
     // It is our node: a bad argument is refused with our message and exit code 1.
     let out = Command::new(&node)
         .args(["--ros-args", "--bogus"])

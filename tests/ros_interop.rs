@@ -450,6 +450,18 @@ fn the_live_diagnosis_names_a_hidden_sinusoid_and_nothing_on_a_clean_axis() {
     }
     // /diagnostics names it and warns (level 1) on gyro_x only.
     let gx = &array.status[0];
+    let cost = |i: usize| {
+        let kv = array.status[i]
+            .values
+            .iter()
+            .find(|kv| kv.key == "diagnosis_ms");
+        kv.map(|kv| kv.value.clone())
+    };
+    eprintln!(
+        "diagnosis cost: gyro_x (failing model, every candidate refitted) {:?} ms, gyro_y {:?} ms",
+        cost(0),
+        cost(1)
+    );
     assert_eq!(gx.level, 1, "{gx:?}");
     let listed = gx.values.iter().find(|kv| kv.key == "suggestions").unwrap();
     assert!(listed.value.starts_with("sinusoid"), "{listed:?}");

@@ -160,6 +160,8 @@ pub struct Monitor {
     new_rows: Option<Vec<AxisState>>,
     /// The latest diagnosis of each axis.
     suggestions: [Vec<Suggestion>; 6],
+    /// What the latest diagnosis of each axis cost, ms of the analysis thread.
+    diagnosis_ms: [Option<f64>; 6],
     /// Node time the last diagnosis round started, ns.
     last_diagnosis_ns: Option<i64>,
     /// Axes of the current round still to diagnose (one per publication).
@@ -187,6 +189,7 @@ impl Monitor {
             new_rows: None,
             receive_time_stamps: None,
             suggestions: Default::default(),
+            diagnosis_ms: [None; 6],
             last_diagnosis_ns: None,
             diagnosis_due: Vec::new(),
         }
@@ -251,7 +254,9 @@ impl Monitor {
         // Only axes with a row: before that the whole run is too short to say anything.
         while let Some(axis) = self.diagnosis_due.pop() {
             if self.latest[axis.index()].is_some() {
+                let start = std::time::Instant::now();
                 self.suggestions[axis.index()] = engine.diagnose(axis);
+                self.diagnosis_ms[axis.index()] = Some(start.elapsed().as_secs_f64() * 1e3);
                 return;
             }
         }
@@ -423,6 +428,9 @@ impl Monitor {
                     self.rate_hz.map_or("".to_string(), |r| format!("{r:.3}")),
                 ),
             ];
+            if let Some(ms) = self.diagnosis_ms[i] {
+                values.push(KeyValue::new("diagnosis_ms", format!("{ms:.3}")));
+            }
             let (level, message) = if let Some(why) = &stale {
                 (Level::Error, why.clone())
             } else if self.recent_non_finite[i] > 0 && self.latest[i].is_none() {

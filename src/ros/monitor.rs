@@ -676,4 +676,77 @@ mod tests {
         assert_eq!(value(&a, 0, "window_length"), "171");
         assert_eq!(level(&a, 0), Level::Ok as u8);
     }
+
+    /// Rows on every axis; a diagnosis that names `sinusoid` on gyro_x and counts its calls.
+    struct Diagnosing(std::sync::Arc<std::sync::Mutex<Vec<Axis>>>);
+    impl RowEngine for Diagnosing {
+        fn push(&mut self, s: &ImuSample) -> Vec<(Axis, AxisState)> {
+            Axis::ALL
+                .iter()
+                .map(|&a| {
+                    let state = AxisState {
+                        axis: a.name().into(),
+                        analysis_time_s: s.stamp_ns as f64 * 1e-9,
+                        fit_error: 1.0,
+                        ..AxisState::default()
+                    };
+                    (a, state)
+                })
+                .collect()
+        }
+        fn reconfigure(&mut self, _: Change) -> Result<(), String> {
+            Ok(())
+        }
+        fn diagnose(&self, axis: Axis) -> Vec<Suggestion> {
+            self.0.lock().unwrap().push(axis);
+            if axis == Axis::GyroX {
+                vec![Suggestion {
+                    effect: "sinusoid".into(),
+                    fit_error_after: 0.9,
+                    ..Suggestion::default()
+                }]
+            } else {
+                Vec::new()
+            }
+        }
+    }
+
+    #[test]
+    fn the_diagnosis_runs_one_axis_per_report_each_period_and_warns_with_a_suggestion() {
+        let calls = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+        let settings = MonitorSettings {
+            diagnosis_period_s: 2.0,
+            stale_timeout_s: 100.0,
+            ..MonitorSettings::default()
+        };
+        let mut m = Monitor::new(settings, Some(Box::new(Diagnosing(calls.clone()))));
+        let mut t = 0;
+        let mut reports = Vec::new();
+        // 10 s of samples at 100 Hz, a report every 0.1 s.
+        for k in 1..=1000 {
+            t += 10 * MS;
+            m.push(sample(t, 0.0), "imu", t);
+            if k % 10 == 0 {
+                reports.push(m.report(t).0);
+            }
+        }
+        let calls = calls.lock().unwrap().clone();
+        // A round of six every 2 s over 10 s: five rounds, one axis per report, in axis order.
+        assert_eq!(calls.len(), 30, "{calls:?}");
+        assert_eq!(&calls[..6], &Axis::ALL);
+        let last = reports.last().unwrap();
+        assert_eq!(level(last, 0), Level::Warn as u8, "{:?}", last.status[0]);
+        assert_eq!(value(last, 0, "suggestions"), "sinusoid");
+        assert!(last.status[0].message.contains("sinusoid"));
+        assert_eq!(level(last, 1), Level::Ok as u8);
+        assert_eq!(value(last, 1, "suggestions"), "");
+        // Period 0: off, and the suggestions are cleared.
+        m.set_settings(MonitorSettings {
+            diagnosis_period_s: 0.0,
+            ..settings
+        });
+        let (a, states, _) = m.report(t);
+        assert_eq!(level(&a, 0), Level::Ok as u8);
+        assert!(states.iter().all(|s| s.suggestions.is_empty()));
+    }
 }

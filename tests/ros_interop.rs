@@ -527,6 +527,66 @@ fn a_played_recording_with_a_hidden_sinusoid_gets_sinusoid_suggested_over_dds() 
     }
 }
 
+#[test]
+fn a_temperature_driven_axis_gets_a_live_temperature_coefficient() {
+    // In-process: the node's engine and monitor with the temperature topic's readings (2 Hz),
+    // gyro_x = 2e-4 rad/s/K·(T − 30 °C) + white noise, T from 20 to 40 °C over 100 s.
+    use fdavar::ros::engine::{model_kinds, PipelineEngine};
+    use fdavar::ros::monitor::{Monitor, MonitorSettings};
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let config = fdavar::params::config_from_params(&Default::default()).unwrap();
+    let engine = PipelineEngine::new(config, model_kinds("N,B,K").unwrap()).unwrap();
+    let settings = MonitorSettings {
+        stale_timeout_s: 10.0,
+        diagnosis_period_s: 0.0,
+        ..MonitorSettings::default()
+    };
+    let mut monitor = Monitor::new(settings, Some(Box::new(engine)));
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+    let noise = Normal::new(0.0, 1e-3).unwrap();
+    let n = 20_000_i64;
+    for k in 0..n {
+        let celsius = 20.0 + 20.0 * k as f64 / n as f64;
+        let mut v = [0.0; 6];
+        for x in &mut v {
+            *x = noise.sample(&mut rng);
+        }
+        v[0] += 2e-4 * (celsius - 30.0);
+        let s = sample_at(k, v);
+        let t = s.stamp_ns;
+        monitor.push(s, "imu_link", t);
+        if k % 100 == 0 {
+            monitor.push_temperature(&fdavar::signal::TemperatureSample {
+                stamp_ns: t,
+                celsius,
+            });
+        }
+    }
+    let (_, states, _) = monitor.report(sample_at(n, [0.0; 6]).stamp_ns);
+    let coefficient = |axis: &str| {
+        let s = states.iter().find(|s| s.axis == axis).unwrap();
+        s.coefficients
+            .iter()
+            .find(|c| c.effect == "temperature")
+            .cloned()
+    };
+    let gx = coefficient("gyro_x").expect("no temperature coefficient on gyro_x");
+    eprintln!("gyro_x: {gx:?}");
+    assert_eq!(
+        (gx.name.as_str(), gx.unit.as_str()),
+        ("coefficient_per_k", "rad/s/K")
+    );
+    assert!((gx.value / 2e-4 - 1.0).abs() < 0.1, "{gx:?}");
+    for axis in ["gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"] {
+        assert!(
+            coefficient(axis).is_none(),
+            "{axis}: {:?}",
+            coefficient(axis)
+        );
+    }
+}
+
 /// What `fdavar davar BAG --json` (the real binary) prints for the recording: its rows and τ0.
 fn cli_rows(bag: &Path) -> (Vec<serde_json::Value>, f64) {
     let out = Command::new(env!("CARGO_BIN_EXE_fdavar"))

@@ -11,6 +11,7 @@
 //! ([`crate::model::diagnose_curve`]): which spectral effect the model lacks over the whole run.
 
 use super::monitor::{Change, RowEngine};
+use super::temperature::TemperatureRegression;
 use crate::allan::streaming::OavarAccumulator;
 use crate::allan::{AllanPoint, TauGrid};
 use crate::model::effects::{unit_on_axis, EffectKind, REGISTRY};
@@ -19,7 +20,7 @@ use crate::msgs::builtin_interfaces::Time;
 use crate::msgs::fdavar_msgs::{AxisState, Coefficient, DavarPoint, Suggestion, TauInterval};
 use crate::msgs::std_msgs::Header;
 use crate::pipeline::{AxisRow, DavarConfig, Output, Pipeline, PipelineError};
-use crate::signal::{Axis, ImuSample};
+use crate::signal::{Axis, ImuSample, TemperatureSample};
 
 /// [`Pipeline`] as a [`RowEngine`].
 pub struct PipelineEngine {
@@ -29,6 +30,8 @@ pub struct PipelineEngine {
     model: Vec<&'static dyn EffectKind>,
     /// Whole-run Allan variance per axis ([`Axis::ALL`] order), made once τ0 is known.
     whole_run: Option<Vec<OavarAccumulator>>,
+    /// Live temperature coefficient per axis (fed only when the temperature topic is on).
+    temperature: TemperatureRegression,
 }
 
 impl std::fmt::Debug for PipelineEngine {
@@ -77,6 +80,7 @@ impl PipelineEngine {
             out: Output::default(),
             model,
             whole_run: None,
+            temperature: TemperatureRegression::default(),
         })
     }
 }
@@ -130,11 +134,16 @@ impl RowEngine for PipelineEngine {
                 acc.push(v);
             }
         }
+        self.temperature.push_rate(sample);
         self.out
             .rows
             .iter()
             .map(|row| (row.axis, axis_state(row, tau0)))
             .collect()
+    }
+
+    fn push_temperature(&mut self, t: &TemperatureSample) {
+        self.temperature.push_temperature(t);
     }
 
     fn reconfigure(&mut self, change: Change) -> Result<(), String> {
@@ -189,6 +198,17 @@ impl RowEngine for PipelineEngine {
                     .map(|p| coefficient(&term.effect, p, axis))
             })
             .collect();
+        // The temperature coefficient, when the temperature topic gave a significant slope.
+        if let Some((a, (value, _sigma))) =
+            axis.and_then(|a| self.temperature.coefficient(a).map(|c| (a, c)))
+        {
+            state.coefficients.push(Coefficient {
+                effect: "temperature".to_string(),
+                name: "coefficient_per_k".to_string(),
+                value,
+                unit: unit_on_axis("rad/s/K", a),
+            });
+        }
     }
 
     fn diagnose(&self, axis: Axis) -> Vec<Suggestion> {

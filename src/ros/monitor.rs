@@ -12,7 +12,7 @@ use crate::msgs::builtin_interfaces::Time;
 use crate::msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue, Level};
 use crate::msgs::fdavar_msgs::{AxisState, Suggestion};
 use crate::msgs::std_msgs::Header;
-use crate::signal::{Axis, ImuSample, PeriodEstimator, StampCheck, StampClass};
+use crate::signal::{Axis, ImuSample, PeriodEstimator, StampCheck, StampClass, TemperatureSample};
 
 /// The F-DAVAR engine as the node drives it: samples in, per-axis rows out.
 ///
@@ -23,6 +23,8 @@ pub trait RowEngine: Send {
     /// Feeds one checked sample (finite values, stamps strictly increasing); returns the rows that
     /// became complete, as (axis, state with the analysis fields filled).
     fn push(&mut self, sample: &ImuSample) -> Vec<(Axis, AxisState)>;
+    /// Feeds one reading of the temperature topic (only when the node subscribes it).
+    fn push_temperature(&mut self, _t: &TemperatureSample) {}
     /// Applies a live parameter change (model, window settings).
     ///
     /// # Errors
@@ -363,6 +365,14 @@ impl Monitor {
             }
         }
         log
+    }
+
+    /// Feeds one reading of the temperature topic to the engine (the live temperature
+    /// coefficient).
+    pub fn push_temperature(&mut self, t: &TemperatureSample) {
+        if let Some(engine) = self.engine.as_mut() {
+            engine.push_temperature(t);
+        }
     }
 
     /// Closes the current rate window: updates `rate_hz` and detects a rate change.

@@ -201,6 +201,7 @@ enum Input {
         /// When the receive loop took it off DDS (for the receive-to-update latency).
         received: Instant,
     },
+    Temperature(crate::signal::TemperatureSample),
 }
 
 /// Receive-to-update latencies of the most recent samples (a bounded ring).
@@ -652,8 +653,17 @@ fn receive_loop(
             }
         }
         if let Some(t) = temperature.as_deref() {
-            // Temperature is not analysed yet by the node: drain so the reader does not hold it.
-            while let Ok(Some(_)) = t.take() {}
+            while let Ok(Some((msg, _))) = t.take() {
+                let reading = crate::signal::TemperatureSample {
+                    stamp_ns: msg.header.stamp.to_ns(),
+                    celsius: msg.temperature,
+                };
+                // A full queue drops the reading: a slow topic, one reading less in a block mean.
+                if let Err(TrySendError::Disconnected(_)) = tx.try_send(Input::Temperature(reading))
+                {
+                    return Ok(());
+                }
+            }
         }
     }
     Ok(())
@@ -695,6 +705,7 @@ impl Analysis {
                         self.dump_rows();
                     }
                 }
+                Ok(Input::Temperature(reading)) => self.monitor.push_temperature(&reading),
                 Err(RecvTimeoutError::Timeout) => {}
                 Err(RecvTimeoutError::Disconnected) => break,
             }

@@ -426,6 +426,15 @@ mod tests {
         assert!(validate("model", &ParameterValue::String("N,B,K,sinusoid".into())).is_ok());
         let e = validate("model", &ParameterValue::String("N,warp_drive".into())).unwrap_err();
         assert!(e.to_string().contains("warp_drive"), "{e}");
+        // The diagnosis period: 0 turns it off, negative or non-finite is refused.
+        assert!(validate("diagnosis_period_s", &ParameterValue::Double(0.0)).is_ok());
+        assert_eq!(
+            validate("diagnosis_period_s", &ParameterValue::Integer(5)).unwrap(),
+            ParameterValue::Double(5.0)
+        );
+        let e = validate("diagnosis_period_s", &ParameterValue::Double(-1.0)).unwrap_err();
+        assert!(e.to_string().contains("[0, 3600]"), "{e}");
+        assert!(validate("diagnosis_period_s", &ParameterValue::Double(f64::NAN)).is_err());
     }
 
     #[test]

@@ -204,7 +204,8 @@ def scenario_params(peer):
     if listed is None:
         finish(False, "list_parameters did not answer")
     names = sorted(listed.result.names)
-    for want in ["publish_rate_hz", "queue_size", "model", "qos.reliable", "stale_timeout_s"]:
+    for want in ["publish_rate_hz", "queue_size", "model", "qos.reliable", "stale_timeout_s",
+                 "diagnosis_period_s"]:
         if want not in names:
             finish(False, f"parameter {want} not listed", names=names)
 

@@ -17,11 +17,7 @@ fn clean_recordings_get_no_suggestion() {
             let d = diagnose(&rec.input(axis), &nbk, KINDS, &FitOptions::default()).unwrap();
             let names: Vec<&str> = d.suggestions.iter().map(|s| s.effect.as_str()).collect();
             assert!(names.is_empty(), "seed {seed} {axis}: {names:?}");
-            assert!(
-                d.fit.fit_error <= 2.0,
-                "seed {seed} {axis}: fit_error {}",
-                d.fit.fit_error
-            );
+            assert!(d.fit.fit_error <= 2.0, "seed {seed} {axis}: fit_error {}", d.fit.fit_error);
         }
     }
 }
@@ -66,12 +62,7 @@ fn nbk_come_back_on_clean_hour_records() {
     let (mean, _, _) = hour_fits();
     for (k, tol) in [0.05, 0.20, 0.35].into_iter().enumerate() {
         let rel = (mean[k] - GYRO_NBK[k]).abs() / GYRO_NBK[k];
-        assert!(
-            rel <= tol,
-            "coefficient {k}: mean {:.3e} vs truth {:.3e}",
-            mean[k],
-            GYRO_NBK[k]
-        );
+        assert!(rel <= tol, "coefficient {k}: mean {:.3e} vs truth {:.3e}", mean[k], GYRO_NBK[k]);
     }
 }
 

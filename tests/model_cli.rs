@@ -23,9 +23,7 @@ fn spec() -> String {
     ] {
         y += &format!("  {axis}: {{ N: {{ n: {n:e} }}, B: {{ b: {b:e} }}, K: {{ k: {k:e} }}");
         if axis == "gyro_y" {
-            y += &format!(
-                ", sinusoid: {{ amplitude: {AMPLITUDE:e}, frequency_hz: {FREQUENCY_HZ} }}"
-            );
+            y += &format!(", sinusoid: {{ amplitude: {AMPLITUDE:e}, frequency_hz: {FREQUENCY_HZ} }}");
         }
         y += " }\n";
     }
@@ -33,31 +31,19 @@ fn spec() -> String {
 }
 
 fn fdavar(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fdavar"))
-        .args(args)
-        .output()
-        .expect("run fdavar")
+    Command::new(env!("CARGO_BIN_EXE_fdavar")).args(args).output().expect("run fdavar")
 }
 
 /// Runs a subcommand that prints JSON; exit 0, or 3 when some axis's model fails (fit_error > 2).
 fn json(args: &[&str]) -> Value {
     let out = fdavar(args);
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        matches!(out.status.code(), Some(0 | 3)),
-        "fdavar {args:?}: {:?}\n{stderr}",
-        out.status
-    );
+    assert!(matches!(out.status.code(), Some(0 | 3)), "fdavar {args:?}: {:?}\n{stderr}", out.status);
     serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("fdavar {args:?}: {e}\n{stderr}"))
 }
 
 fn axis<'a>(report: &'a Value, name: &str) -> &'a Value {
-    report["axes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|a| a["axis"] == name)
-        .unwrap_or_else(|| panic!("no {name} in {report}"))
+    report["axes"].as_array().unwrap().iter().find(|a| a["axis"] == name).unwrap_or_else(|| panic!("no {name} in {report}"))
 }
 
 #[test]
@@ -68,86 +54,41 @@ fn diagnose_names_a_hidden_sinusoid_and_fit_removes_it() {
     let bag = dir.path().join("rec");
     let bag_s = bag.to_str().unwrap();
     let out = fdavar(&["simulate", spec_path.to_str().unwrap(), "--out", bag_s]);
-    assert!(
-        out.status.success(),
-        "simulate: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(out.status.success(), "simulate: {}", String::from_utf8_lossy(&out.stderr));
 
     let d = json(&["diagnose", bag_s, "--model", "N,B,K", "--json"]);
-    for name in [
-        "gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z",
-    ] {
+    for name in ["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"] {
         let suggestions = axis(&d, name)["suggestions"].as_array().unwrap();
         if name == "gyro_y" {
-            let first = suggestions
-                .first()
-                .unwrap_or_else(|| panic!("gyro_y: no suggestion in {d}"));
+            let first = suggestions.first().unwrap_or_else(|| panic!("gyro_y: no suggestion in {d}"));
             assert_eq!(first["effect"], "sinusoid", "gyro_y: {suggestions:?}");
             let f = first["params"]["frequency_hz"].as_f64().unwrap();
-            assert!(
-                (f - FREQUENCY_HZ).abs() <= 0.10 * FREQUENCY_HZ,
-                "gyro_y: frequency {f} Hz, truth {FREQUENCY_HZ}"
-            );
+            assert!((f - FREQUENCY_HZ).abs() <= 0.10 * FREQUENCY_HZ, "gyro_y: frequency {f} Hz, truth {FREQUENCY_HZ}");
         } else {
             assert!(suggestions.is_empty(), "{name}: {suggestions:?}");
         }
     }
 
     let before = axis(&d, "gyro_y")["fit_error"].as_f64().unwrap();
-    let f = json(&[
-        "fit",
-        bag_s,
-        "--model",
-        "N,B,K,sinusoid",
-        "--axis",
-        "gyro_y",
-        "--json",
-    ]);
+    let f = json(&["fit", bag_s, "--model", "N,B,K,sinusoid", "--axis", "gyro_y", "--json"]);
     let after = axis(&f, "gyro_y")["fit_error"].as_f64().unwrap();
     println!("gyro_y fit_error: N,B,K {before:.2} -> N,B,K,sinusoid {after:.2}");
-    assert!(
-        after * 3.0 <= before,
-        "gyro_y fit_error {before:.2} -> {after:.2}"
-    );
+    assert!(after * 3.0 <= before, "gyro_y fit_error {before:.2} -> {after:.2}");
 
     let figs = dir.path().join("figs");
-    let out = fdavar(&[
-        "diagnose",
-        bag_s,
-        "--model",
-        "N,B,K",
-        "--out",
-        figs.to_str().unwrap(),
-    ]);
-    assert!(
-        matches!(out.status.code(), Some(0 | 3)),
-        "diagnose --out: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = fdavar(&["diagnose", bag_s, "--model", "N,B,K", "--out", figs.to_str().unwrap()]);
+    assert!(matches!(out.status.code(), Some(0 | 3)), "diagnose --out: {}", String::from_utf8_lossy(&out.stderr));
     let pngs: Vec<_> = std::fs::read_dir(&figs)
         .unwrap()
         .map(|e| e.unwrap().path())
         .filter(|p| p.extension().is_some_and(|x| x == "png"))
         .collect();
-    for name in [
-        "allan_gyro_y.png",
-        "allan_accel_z.png",
-        "suggestion_gyro_y_sinusoid.png",
-    ] {
-        assert!(
-            pngs.iter().any(|p| p.file_name().unwrap() == name),
-            "{name} missing from {pngs:?}"
-        );
+    for name in ["allan_gyro_y.png", "allan_accel_z.png", "suggestion_gyro_y_sinusoid.png"] {
+        assert!(pngs.iter().any(|p| p.file_name().unwrap() == name), "{name} missing from {pngs:?}");
     }
     for p in &pngs {
         let bytes = std::fs::read(p).unwrap();
-        assert!(
-            bytes.len() > 1000 && bytes.starts_with(b"\x89PNG"),
-            "{}: {} bytes",
-            p.display(),
-            bytes.len()
-        );
+        assert!(bytes.len() > 1000 && bytes.starts_with(b"\x89PNG"), "{}: {} bytes", p.display(), bytes.len());
     }
     assert!(Path::new(&figs).is_dir());
 }

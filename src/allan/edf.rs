@@ -347,10 +347,7 @@ mod tests {
         assert!(greenhall_edf(-3, OADEV, 1, 100).is_none());
         assert!(greenhall_edf(0, OADEV, 50, 100).is_none());
         // The shortest record that has one term still has an EDF (M = 1).
-        let adev = VarianceShape {
-            overlapping: false,
-            ..OADEV
-        };
+        let adev = VarianceShape { overlapping: false, ..OADEV };
         for alpha in -2..=2 {
             let e = greenhall_edf(alpha, adev, 10, 21).unwrap();
             assert!(e > 0.0 && e.is_finite(), "α={alpha}: {e}");

@@ -230,10 +230,8 @@ fn evidence_present(kind: &'static dyn EffectKind, input: &AxisInput<'_>) -> boo
         // Without DAVAR events, the effect's own time-domain statistic stands in for one: a
         // windowed-variance change for a burst, a two-window mean contrast for a step (a burst
         // detector says nothing about a step in the mean).
-        Evidence::Events if input.events.is_empty() => {
-            timedomain::estimate(kind, input, input.rate)
-                .is_ok_and(|est| timedomain::is_significant(kind, &est))
-        }
+        Evidence::Events if input.events.is_empty() => timedomain::estimate(kind, input, input.rate)
+            .is_ok_and(|est| timedomain::is_significant(kind, &est)),
         _ => true,
     }
 }

@@ -19,9 +19,9 @@
 //! # References
 //! IEEE Std 952-1997, Annex C; Riley, NIST SP 1065 (2008), §5.2.4, Table 12; Lawson & Hanson (1974).
 
-use crate::allan::oavar_rate;
 use crate::allan::{AllanPoint, TauGrid};
 use crate::model::effects::{unit_on_axis, Domain, Effect, EffectKind, ParamError};
+use crate::allan::oavar_rate;
 use crate::model::measure::{chi2_interval, edf_for_mix, NoiseClass};
 use crate::model::nnls::{nnls, NnlsError};
 use crate::model::spec::{ModelSpec, SpecError};
@@ -530,11 +530,7 @@ impl<'a> Problem<'a> {
             .map(|&kind| {
                 let schema = kind.schema();
                 let (lo, hi) = schema[0].bounds;
-                let amp_ref = if lo <= 1.0 && 1.0 <= hi {
-                    1.0
-                } else {
-                    hi.min(lo.abs().max(hi) * 0.5)
-                };
+                let amp_ref = if lo <= 1.0 && 1.0 <= hi { 1.0 } else { hi.min(lo.abs().max(hi) * 0.5) };
                 let shapes = schema
                     .iter()
                     .enumerate()
@@ -663,15 +659,7 @@ impl<'a> Problem<'a> {
         }
         let z = z_scores(&meas, &model, &edf);
         let chi2 = z.iter().map(|v| v * v).sum();
-        Ok(Solution {
-            c,
-            meas,
-            model,
-            edf,
-            z,
-            chi2,
-            basis,
-        })
+        Ok(Solution { c, meas, model, edf, z, chi2, basis })
     }
 
     /// Coordinate search over the shape parameters: a log grid scan, then golden-section refinement.
@@ -690,9 +678,7 @@ impl<'a> Problem<'a> {
         for _ in 0..rounds {
             for (d, &(lo, hi)) in ranges.iter().enumerate() {
                 // 40 points per decade: neighbouring candidates differ by 6 %.
-                let steps = (((hi - lo) / std::f64::consts::LN_10) * 40.0)
-                    .ceil()
-                    .max(8.0) as usize;
+                let steps = (((hi - lo) / std::f64::consts::LN_10) * 40.0).ceil().max(8.0) as usize;
                 let h = (hi - lo) / steps as f64;
                 let mut best = (f64::MAX, shapes[d]);
                 for s in 0..=steps {
@@ -730,11 +716,7 @@ impl<'a> Problem<'a> {
                     }
                 }
                 let mid = 0.5 * (a + b);
-                shapes[d] = if eval(mid, &shapes)? <= best.0 {
-                    mid
-                } else {
-                    best.1
-                };
+                shapes[d] = if eval(mid, &shapes)? <= best.0 { mid } else { best.1 };
             }
         }
         Ok(shapes)

@@ -94,7 +94,10 @@ pub fn edf_oavar(class: NoiseClass, n: usize, m: usize) -> f64 {
 /// (the variance of a sum of independent scaled χ² variables, matched to one scaled χ²).
 pub fn edf_for_mix(parts: &[(f64, NoiseClass)], n: usize, m: usize) -> f64 {
     let total: f64 = parts.iter().map(|p| p.0).sum();
-    let var: f64 = parts.iter().map(|&(v, c)| v * v / edf_oavar(c, n, m)).sum();
+    let var: f64 = parts
+        .iter()
+        .map(|&(v, c)| v * v / edf_oavar(c, n, m))
+        .sum();
     if total > 0.0 && var > 0.0 {
         (total * total / var).max(1.0)
     } else {
@@ -126,10 +129,7 @@ mod tests {
             NoiseClass::FlickerFm,
             NoiseClass::RandomWalkFm,
         ] {
-            let e: Vec<f64> = [1, 10, 100, 1000]
-                .iter()
-                .map(|&m| edf_oavar(class, 10_001, m))
-                .collect();
+            let e: Vec<f64> = [1, 10, 100, 1000].iter().map(|&m| edf_oavar(class, 10_001, m)).collect();
             assert!(e.windows(2).all(|w| w[1] <= w[0]), "{class:?}: {e:?}");
         }
         // A mix of one part is that part.

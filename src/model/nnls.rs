@@ -144,12 +144,7 @@ mod tests {
         for j in 0..x.len() {
             assert!(x[j] >= 0.0);
             if x[j] > 0.0 {
-                assert!(
-                    w[j].abs() <= 1e-9 * scale,
-                    "w[{j}] = {} at x = {}",
-                    w[j],
-                    x[j]
-                );
+                assert!(w[j].abs() <= 1e-9 * scale, "w[{j}] = {} at x = {}", w[j], x[j]);
             } else {
                 assert!(w[j] <= 1e-9 * scale, "w[{j}] = {} > 0 at a bound", w[j]);
             }
@@ -172,20 +167,13 @@ mod tests {
     #[test]
     fn recovers_exact_nonnegative_solution_across_scales() {
         // Columns spanning 16 decades, as τ⁻², τ⁻¹, 1, τ, τ² do on a long record.
-        let taus: Vec<f64> = (0..40)
-            .map(|k| 10f64.powf(-2.0 + k as f64 * 0.15))
-            .collect();
+        let taus: Vec<f64> = (0..40).map(|k| 10f64.powf(-2.0 + k as f64 * 0.15)).collect();
         let a = DMatrix::from_fn(taus.len(), 5, |i, j| taus[i].powi(j as i32 - 2));
         let truth = DVector::from_vec(vec![1e-8, 3e-5, 0.0, 2e-7, 1e-11]);
         let b = &a * &truth;
         let x = nnls(&a, &b).unwrap();
         for j in 0..5 {
-            assert!(
-                (x[j] - truth[j]).abs() <= 1e-6 * truth[j].max(1e-14),
-                "{j}: {} vs {}",
-                x[j],
-                truth[j]
-            );
+            assert!((x[j] - truth[j]).abs() <= 1e-6 * truth[j].max(1e-14), "{j}: {} vs {}", x[j], truth[j]);
         }
     }
 

@@ -49,11 +49,8 @@ impl AxisReport {
             .terms
             .iter()
             .map(|t| {
-                let params: Map<String, Value> = t
-                    .params
-                    .iter()
-                    .map(|p| (p.name.clone(), number(p.value)))
-                    .collect();
+                let params: Map<String, Value> =
+                    t.params.iter().map(|p| (p.name.clone(), number(p.value))).collect();
                 (t.effect.clone(), Value::Object(params))
             })
             .collect();
@@ -89,11 +86,8 @@ impl AxisReport {
                 .map(|s| {
                     let mut m = Map::new();
                     m.insert("effect".into(), Value::String(s.effect.clone()));
-                    let params: Map<String, Value> = s
-                        .params
-                        .iter()
-                        .map(|p| (p.name.clone(), number(p.value)))
-                        .collect();
+                    let params: Map<String, Value> =
+                        s.params.iter().map(|p| (p.name.clone(), number(p.value))).collect();
                     m.insert("params".into(), Value::Object(params));
                     m.insert("fit_error_after".into(), number(s.fit_error_after));
                     m.insert("explanation".into(), Value::String(s.explanation.clone()));
@@ -128,22 +122,14 @@ pub fn model_curves(fit: &FittedModel) -> ModelCurves {
             .map(|t| t.alias.clone().unwrap_or_else(|| t.effect.clone()))
             .collect::<Vec<_>>()
             .join(" + "),
-        total: fit
-            .points
-            .iter()
-            .map(|p| (p.tau, p.model.max(0.0).sqrt()))
-            .collect(),
+        total: fit.points.iter().map(|p| (p.tau, p.model.max(0.0).sqrt())).collect(),
         terms: fit
             .terms
             .iter()
             .filter(|t| !t.curve.is_empty())
             .map(|t| Term {
                 name: t.alias.clone().unwrap_or_else(|| t.effect.clone()),
-                curve: tau
-                    .iter()
-                    .zip(&t.curve)
-                    .map(|(&x, &v)| (x, v.max(0.0).sqrt()))
-                    .collect(),
+                curve: tau.iter().zip(&t.curve).map(|(&x, &v)| (x, v.max(0.0).sqrt())).collect(),
             })
             .collect(),
         z: fit.points.iter().map(|p| (p.tau, p.z)).collect(),
@@ -164,11 +150,7 @@ pub fn allan_figure(fit: &FittedModel, title: &str) -> AllanFigure {
 }
 
 /// The before/after figure of a suggestion.
-pub fn comparison_figure(
-    before: &FittedModel,
-    after: &FittedModel,
-    title: &str,
-) -> AllanComparison {
+pub fn comparison_figure(before: &FittedModel, after: &FittedModel, title: &str) -> AllanComparison {
     AllanComparison {
         axis: before.axis.name().to_string(),
         unit: before.axis.rate_unit().to_string(),

@@ -6,9 +6,7 @@
 //! temperature is interpolated linearly at each IMU sample time. No I/O here.
 
 use crate::model::fit::AxisInput;
-use crate::signal::{
-    nominal_period, Axis, ImuSample, Irregularities, StampCheck, StampClass, TemperatureSample,
-};
+use crate::signal::{nominal_period, Axis, ImuSample, Irregularities, StampCheck, StampClass, TemperatureSample};
 
 /// Six axes of rate samples on a regular grid, with what was irregular.
 #[derive(Debug, Clone, PartialEq)]
@@ -46,10 +44,7 @@ impl Recording {
     /// # Errors
     /// [`RecordError::NoPeriod`] with fewer than two distinct stamps; [`RecordError::HugeGap`]
     /// when a gap would more than double the record.
-    pub fn from_samples(
-        imu: &[ImuSample],
-        temps: &[TemperatureSample],
-    ) -> Result<Self, RecordError> {
+    pub fn from_samples(imu: &[ImuSample], temps: &[TemperatureSample]) -> Result<Self, RecordError> {
         let stamps: Vec<i64> = imu.iter().map(|s| s.stamp_ns).collect();
         let tau0 = nominal_period(&stamps).ok_or(RecordError::NoPeriod(imu.len()))?;
         let mut check = StampCheck::new(tau0);
@@ -108,8 +103,7 @@ impl Recording {
 
 /// Linear interpolation of temperature readings at `times` (held constant beyond the ends).
 fn interpolate(temps: &[TemperatureSample], times: &[i64]) -> Vec<f64> {
-    let mut sorted: Vec<&TemperatureSample> =
-        temps.iter().filter(|t| t.celsius.is_finite()).collect();
+    let mut sorted: Vec<&TemperatureSample> = temps.iter().filter(|t| t.celsius.is_finite()).collect();
     sorted.sort_by_key(|t| t.stamp_ns);
     let mut k = 0;
     times
@@ -138,11 +132,7 @@ mod tests {
     use super::*;
 
     fn sample(stamp_ns: i64, v: f64) -> ImuSample {
-        ImuSample {
-            stamp_ns,
-            gyro: [v; 3],
-            accel: [v; 3],
-        }
+        ImuSample { stamp_ns, gyro: [v; 3], accel: [v; 3] }
     }
 
     #[test]
@@ -153,14 +143,8 @@ mod tests {
             .map(|&k| sample(k * ms, k as f64))
             .collect();
         let temps = [
-            TemperatureSample {
-                stamp_ns: 0,
-                celsius: 20.0,
-            },
-            TemperatureSample {
-                stamp_ns: 6 * ms,
-                celsius: 26.0,
-            },
+            TemperatureSample { stamp_ns: 0, celsius: 20.0 },
+            TemperatureSample { stamp_ns: 6 * ms, celsius: 26.0 },
         ];
         let r = Recording::from_samples(&imu, &temps).unwrap();
         assert!((r.tau0 - 0.01).abs() < 1e-12);

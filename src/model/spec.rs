@@ -149,10 +149,7 @@ mod tests {
     #[test]
     fn parses_ids_and_aliases_in_order_without_duplicates() {
         let s = ModelSpec::parse_in(" N, B ,K,sinusoid,white", KINDS).unwrap();
-        assert_eq!(
-            s.ids(),
-            ["white", "bias_instability", "random_walk", "sinusoid"]
-        );
+        assert_eq!(s.ids(), ["white", "bias_instability", "random_walk", "sinusoid"]);
         assert_eq!(s.to_string(), "white,bias_instability,random_walk,sinusoid");
         assert_eq!(ModelSpec::parse_in(&s.to_string(), KINDS).unwrap(), s);
     }

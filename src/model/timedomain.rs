@@ -30,12 +30,7 @@ const ORDER: [&str; 4] = ["temperature", "g_sensitivity", "bias_step", "noise_bu
 
 /// The time-domain kinds sorted in estimation order (unknown ids last, in the order given).
 pub fn in_estimation_order(kinds: &[&'static dyn EffectKind]) -> Vec<&'static dyn EffectKind> {
-    let rank = |k: &&'static dyn EffectKind| {
-        ORDER
-            .iter()
-            .position(|&id| id == k.id())
-            .unwrap_or(ORDER.len())
-    };
+    let rank = |k: &&'static dyn EffectKind| ORDER.iter().position(|&id| id == k.id()).unwrap_or(ORDER.len());
     let mut v = kinds.to_vec();
     v.sort_by_key(rank);
     v
@@ -67,25 +62,16 @@ pub fn estimate(
     };
     match kind.id() {
         "temperature" => {
-            let t = input
-                .temperature_c
-                .ok_or_else(|| missing("a temperature topic"))?;
+            let t = input.temperature_c.ok_or_else(|| missing("a temperature topic"))?;
             let (c, s, _) = regress(series, t);
             let (_, _, strength) = regress_slow(series, t);
-            Ok(Estimate {
-                values: vec![c],
-                sigmas: vec![Some(s)],
-                is_event: false,
-                strength,
-            })
+            Ok(Estimate { values: vec![c], sigmas: vec![Some(s)], is_event: false, strength })
         }
         "g_sensitivity" => {
             let acc = input
                 .accel
                 .filter(|_| input.axis.is_gyro())
-                .ok_or_else(|| {
-                    missing("the accelerometer axes of the same IMU (gyro axes only)")
-                })?;
+                .ok_or_else(|| missing("the accelerometer axes of the same IMU (gyro axes only)"))?;
             let best = (0..3)
                 .map(|src| (src, regress(series, acc[src])))
                 .max_by(|a, b| a.1 .2.total_cmp(&b.1 .2))
@@ -110,11 +96,7 @@ pub fn estimate(
         "noise_burst" => {
             let b = find_burst(series, input.tau0);
             Ok(Estimate {
-                values: vec![
-                    b.start as f64 * input.tau0,
-                    b.end as f64 * input.tau0,
-                    b.factor.max(1.0),
-                ],
+                values: vec![b.start as f64 * input.tau0, b.end as f64 * input.tau0, b.factor.max(1.0)],
                 sigmas: vec![None, None, None],
                 is_event: true,
                 strength: b.strength,
@@ -131,20 +113,14 @@ pub fn remove(kind: &dyn EffectKind, est: &Estimate, input: &AxisInput<'_>, seri
         "temperature" => {
             if let Some(t) = input.temperature_c {
                 let mean = finite_mean(t);
-                series
-                    .iter_mut()
-                    .zip(t)
-                    .for_each(|(y, c)| *y -= v[0] * (c - mean));
+                series.iter_mut().zip(t).for_each(|(y, c)| *y -= v[0] * (c - mean));
             }
         }
         "g_sensitivity" => {
             if let Some(acc) = input.accel {
                 let src = acc[(v[0].round() as usize).min(2)];
                 let mean = finite_mean(src);
-                series
-                    .iter_mut()
-                    .zip(src)
-                    .for_each(|(y, a)| *y -= v[1] * (a - mean));
+                series.iter_mut().zip(src).for_each(|(y, a)| *y -= v[1] * (a - mean));
             }
         }
         "bias_step" => {
@@ -154,11 +130,7 @@ pub fn remove(kind: &dyn EffectKind, est: &Estimate, input: &AxisInput<'_>, seri
         "noise_burst" => {
             let start = (v[0] / input.tau0).round() as usize;
             let end = ((v[1] / input.tau0).round() as usize).min(series.len());
-            shrink_white(
-                &mut series[start.min(end)..end],
-                v[2],
-                block_len(input.tau0),
-            );
+            shrink_white(&mut series[start.min(end)..end], v[2], block_len(input.tau0));
         }
         _ => {}
     }
@@ -184,11 +156,7 @@ fn finite_mean(x: &[f64]) -> f64 {
 /// c = Σ (x−x̄)(y−ȳ) / Σ (x−x̄)²,   se² = Σ r² / ((n−2)·Σ (x−x̄)²),   strength = (c/se)²
 /// ```
 pub fn regress(y: &[f64], x: &[f64]) -> (f64, f64, f64) {
-    let pairs = || {
-        y.iter()
-            .zip(x)
-            .filter(|(a, b)| a.is_finite() && b.is_finite())
-    };
+    let pairs = || y.iter().zip(x).filter(|(a, b)| a.is_finite() && b.is_finite());
     let n = pairs().count();
     if n < 3 {
         return (0.0, f64::INFINITY, 0.0);
@@ -209,11 +177,7 @@ pub fn regress(y: &[f64], x: &[f64]) -> (f64, f64, f64) {
         })
         .sum();
     let se = (rss / ((n - 2) as f64 * sxx)).sqrt();
-    let strength = if se > 0.0 {
-        (c / se).powi(2)
-    } else {
-        f64::INFINITY
-    };
+    let strength = if se > 0.0 { (c / se).powi(2) } else { f64::INFINITY };
     (c, se, strength)
 }
 
@@ -240,24 +204,12 @@ pub fn regress_slow(y: &[f64], x: &[f64]) -> (f64, f64, f64) {
     let dx: Vec<f64> = xm.windows(2).map(|w| w[1] - w[0]).collect();
     let (c, se, _) = regress(&dy, &dx);
     let (mx, my) = (finite_mean(&dx), finite_mean(&dy));
-    let r: Vec<f64> = dy
-        .iter()
-        .zip(&dx)
-        .map(|(a, b)| (a - my) - c * (b - mx))
-        .collect();
+    let r: Vec<f64> = dy.iter().zip(&dx).map(|(a, b)| (a - my) - c * (b - mx)).collect();
     let var: f64 = r.iter().map(|v| v * v).sum();
     let lag: f64 = r.windows(2).map(|w| w[0] * w[1]).sum();
-    let rho = if var > 0.0 {
-        (lag / var).clamp(0.0, 0.95)
-    } else {
-        0.0
-    };
+    let rho = if var > 0.0 { (lag / var).clamp(0.0, 0.95) } else { 0.0 };
     let se_eff = se * ((1.0 + rho) / (1.0 - rho)).sqrt();
-    let strength = if se_eff > 0.0 {
-        (c / se_eff).powi(2)
-    } else {
-        0.0
-    };
+    let strength = if se_eff > 0.0 { (c / se_eff).powi(2) } else { 0.0 };
     (c, se_eff, strength)
 }
 
@@ -312,17 +264,10 @@ pub fn find_step(y: &[f64]) -> (usize, f64, f64) {
         .unwrap_or((0, 0.0));
     // E[D²] = 2σ²_A(W·τ0) for stationary noise; estimated robustly from the median of D² on a
     // grid of positions (a step touches only 2W of them): median(χ²₁) = 0.4549.
-    let mut d2: Vec<f64> = (w..=n - w)
-        .step_by((w / 4).max(1))
-        .map(|i| contrast(i).powi(2))
-        .collect();
+    let mut d2: Vec<f64> = (w..=n - w).step_by((w / 4).max(1)).map(|i| contrast(i).powi(2)).collect();
     d2.sort_by(f64::total_cmp);
     let typical = d2.get(d2.len() / 2).copied().unwrap_or(0.0) / 0.4549;
-    let strength = if typical > 0.0 {
-        best_d * best_d / typical
-    } else {
-        0.0
-    };
+    let strength = if typical > 0.0 { best_d * best_d / typical } else { 0.0 };
     (best_i, best_d, strength)
 }
 
@@ -351,12 +296,7 @@ pub struct Burst {
 pub fn find_burst(y: &[f64], tau0: f64) -> Burst {
     let b = block_len(tau0);
     let nb = y.len() / b;
-    let none = Burst {
-        start: 0,
-        end: 0,
-        factor: 1.0,
-        strength: 0.0,
-    };
+    let none = Burst { start: 0, end: 0, factor: 1.0, strength: 0.0 };
     if nb < 4 {
         return none;
     }
@@ -367,35 +307,17 @@ pub fn find_burst(y: &[f64], tau0: f64) -> Burst {
         let (s, n) = blk
             .windows(2)
             .filter(|p| p[0].is_finite() && p[1].is_finite())
-            .fold((0.0, 0usize), |(s, n), p| {
-                (s + 0.5 * (p[1] - p[0]).powi(2), n + 1)
-            });
+            .fold((0.0, 0usize), |(s, n), p| (s + 0.5 * (p[1] - p[0]).powi(2), n + 1));
         v.push(s);
         c.push(n as f64);
     }
-    let pv: Vec<f64> = std::iter::once(0.0)
-        .chain(v.iter().scan(0.0, |a, x| {
-            *a += x;
-            Some(*a)
-        }))
-        .collect();
-    let pc: Vec<f64> = std::iter::once(0.0)
-        .chain(c.iter().scan(0.0, |a, x| {
-            *a += x;
-            Some(*a)
-        }))
-        .collect();
+    let pv: Vec<f64> = std::iter::once(0.0).chain(v.iter().scan(0.0, |a, x| { *a += x; Some(*a) })).collect();
+    let pc: Vec<f64> = std::iter::once(0.0).chain(c.iter().scan(0.0, |a, x| { *a += x; Some(*a) })).collect();
     let (vt, ct) = (pv[nb], pc[nb]);
     if vt <= 0.0 || ct <= 0.0 {
         return none;
     }
-    let ll = |v: f64, n: f64| {
-        if n > 0.0 && v > 0.0 {
-            n * (v / n).ln()
-        } else {
-            0.0
-        }
-    };
+    let ll = |v: f64, n: f64| if n > 0.0 && v > 0.0 { n * (v / n).ln() } else { 0.0 };
     let total = ll(vt, ct);
     let mut best = none;
     for s in 0..nb {
@@ -408,12 +330,7 @@ pub fn find_burst(y: &[f64], tau0: f64) -> Burst {
             let llr = 0.5 * (total - ll(vi, ci) - ll(vo, co));
             if llr > best.strength && ci > 0.0 && co > 0.0 {
                 let factor = ((vi / ci) / (vo / co)).sqrt();
-                best = Burst {
-                    start: s * b,
-                    end: e * b,
-                    factor,
-                    strength: llr,
-                };
+                best = Burst { start: s * b, end: e * b, factor, strength: llr };
             }
         }
     }
@@ -460,10 +377,7 @@ mod tests {
         let (i, size, strength) = find_step(&y);
         assert!((i as i64 - 21_000).abs() < 300, "{i}");
         // D's white-noise sd is √(2/W) = 0.032 with W = 2000.
-        assert!(
-            (size - 0.3).abs() < 4.0 * (2.0f64 / 2000.0).sqrt(),
-            "{size}"
-        );
+        assert!((size - 0.3).abs() < 4.0 * (2.0f64 / 2000.0).sqrt(), "{size}");
         assert!(strength > 50.0);
     }
 
@@ -475,10 +389,7 @@ mod tests {
             y[i] += extra[i] * (9.0f64 - 1.0).sqrt();
         }
         let b = find_burst(&y, 0.01);
-        assert!(
-            (b.start as i64 - 30_000).abs() <= 100 && (b.end as i64 - 50_000).abs() <= 100,
-            "{b:?}"
-        );
+        assert!((b.start as i64 - 30_000).abs() <= 100 && (b.end as i64 - 50_000).abs() <= 100, "{b:?}");
         assert!((b.factor - 3.0).abs() < 0.1, "{b:?}");
     }
 

@@ -194,9 +194,7 @@ impl StampCheck {
             std::cmp::Ordering::Greater => {
                 let dt = (stamp_ns - last) as f64;
                 if dt > 1.5 * self.period_ns {
-                    let missing = ((dt / self.period_ns).round() as u64)
-                        .saturating_sub(1)
-                        .max(1);
+                    let missing = ((dt / self.period_ns).round() as u64).saturating_sub(1).max(1);
                     StampClass::Gap { missing }
                 } else {
                     StampClass::Next

@@ -47,12 +47,7 @@ pub fn spec_yaml(
     motion: &[(Axis, EffectValues)],
 ) -> String {
     let mut y = String::new();
-    writeln!(
-        y,
-        "rate_hz: {rate_hz}\nduration_s: {}\nseed: {seed}",
-        minutes * 60.0
-    )
-    .unwrap();
+    writeln!(y, "rate_hz: {rate_hz}\nduration_s: {}\nseed: {seed}", minutes * 60.0).unwrap();
     writeln!(
         y,
         "temperature: {{ start_c: 20.0, end_c: 28.0, time_constant_s: 600, cycle_amplitude_c: 0.5, cycle_period_s: {}, rate_hz: 10 }}",
@@ -94,11 +89,7 @@ pub fn recording(
     let spec = fdavar::sim::SimSpec::from_yaml(&yaml).unwrap_or_else(|e| panic!("{e}\n{yaml}"));
     let sim = fdavar::sim::simulate(&spec).unwrap_or_else(|e| panic!("{e}\n{yaml}"));
     let rec = Recording::from_samples(&sim.imu, &sim.temperature).unwrap();
-    assert_eq!(
-        rec.axes[0].len(),
-        sim.imu.len(),
-        "a simulated recording has no gaps"
-    );
+    assert_eq!(rec.axes[0].len(), sim.imu.len(), "a simulated recording has no gaps");
     rec
 }
 

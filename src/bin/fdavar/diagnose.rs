@@ -73,18 +73,12 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         let name = title(&args.bag);
         for d in &diagnoses {
             let axis = d.fit.axis;
-            fdavar::report::figure::write_allan(
-                &allan_figure(&d.fit, &name),
-                &dir.join(format!("allan_{axis}")),
-            )
-            .with_context(|| format!("cannot write the figure of {axis}"))?;
+            fdavar::report::figure::write_allan(&allan_figure(&d.fit, &name), &dir.join(format!("allan_{axis}")))
+                .with_context(|| format!("cannot write the figure of {axis}"))?;
             if let (Some(s), Some(after)) = (d.suggestions.first(), d.after.first()) {
                 let stem = dir.join(format!("suggestion_{axis}_{}", s.effect));
-                fdavar::report::figure::write_allan_comparison(
-                    &comparison_figure(&d.fit, after, &name),
-                    &stem,
-                )
-                .with_context(|| format!("cannot write the before/after figure of {axis}"))?;
+                fdavar::report::figure::write_allan_comparison(&comparison_figure(&d.fit, after, &name), &stem)
+                    .with_context(|| format!("cannot write the before/after figure of {axis}"))?;
             }
         }
     }

@@ -124,10 +124,8 @@ pub fn outcome(rec: &Recording, fits: &[FittedModel]) -> Outcome {
 
 /// A figure title from the bag's file name.
 pub fn title(bag: &Path) -> String {
-    bag.file_name().map_or_else(
-        || bag.display().to_string(),
-        |n| n.to_string_lossy().into_owned(),
-    )
+    bag.file_name()
+        .map_or_else(|| bag.display().to_string(), |n| n.to_string_lossy().into_owned())
 }
 
 /// Reads the IMU topic (and the temperature topic, if the bag has one) into a recording.
@@ -158,19 +156,17 @@ pub fn print_json<T: serde::Serialize>(doc: &T) -> anyhow::Result<()> {
 
 /// The readable table of one fitted axis.
 pub fn write_fit(w: &mut dyn Write, f: &FittedModel) -> std::io::Result<()> {
-    writeln!(
-        w,
-        "{}  model {}  fit_error {:.2}",
-        f.axis, f.spec, f.fit_error
-    )?;
+    writeln!(w, "{}  model {}  fit_error {:.2}", f.axis, f.spec, f.fit_error)?;
     let sensor = Sensor::of_axis(f.axis.name());
     for t in &f.terms {
         for p in &t.params {
             let sigma = p.sigma.map_or(String::new(), |s| format!(" ± {s:.3e}"));
             let display = match (Coefficient::from_effect(&t.effect), sensor) {
-                (Some(c), Some(s)) if p.name == t.params[0].name => {
-                    format!("  = {:.4} {}", c.to_display(s, p.value), c.display_unit(s))
-                }
+                (Some(c), Some(s)) if p.name == t.params[0].name => format!(
+                    "  = {:.4} {}",
+                    c.to_display(s, p.value),
+                    c.display_unit(s)
+                ),
                 _ => String::new(),
             };
             writeln!(
@@ -191,11 +187,7 @@ pub fn write_fit(w: &mut dyn Write, f: &FittedModel) -> std::io::Result<()> {
         writeln!(w, "  failing tau: {}", spans.join(", "))?;
     }
     for e in &f.events {
-        let ps: Vec<String> = e
-            .params
-            .iter()
-            .map(|(k, v)| format!("{k}={v:.4}"))
-            .collect();
+        let ps: Vec<String> = e.params.iter().map(|(k, v)| format!("{k}={v:.4}")).collect();
         writeln!(w, "  event: {} {}", e.effect, ps.join(" "))?;
     }
     Ok(())

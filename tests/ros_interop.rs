@@ -587,6 +587,34 @@ fn a_temperature_driven_axis_gets_a_live_temperature_coefficient() {
     }
 }
 
+#[test]
+fn the_temperature_topic_from_rclpy_gives_a_live_coefficient_over_dds() {
+    let Some(py) = python() else { return };
+    let _node = start_node(
+        71,
+        &[
+            "-p",
+            "temperature:=true",
+            "-p",
+            "publish_rate_hz:=4.0",
+            "-p",
+            "stale_timeout_s:=30.0",
+            "-p",
+            "diagnosis_period_s:=0.0",
+        ],
+    );
+    let v = peer(&py, 71, "temperature", Duration::from_secs(90), None);
+    eprintln!("temperature: {v}");
+    let gx: f64 = v["coefficient"]["gyro_x"]
+        .as_str()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("no temperature coefficient on gyro_x: {v}"));
+    // 15 blocks of 200 samples: σ_slope ≈ (1e-3/√200)/(√15·5.8 K) ≈ 3e-7, so 20 % is > 100 σ
+    // and leaves room for the peer's pacing (the ramp follows wall time).
+    assert!((gx / 2e-4 - 1.0).abs() < 0.2, "{v}");
+    assert!(v["coefficient"]["gyro_y"].is_null(), "{v}");
+}
+
 /// What `fdavar davar BAG --json` (the real binary) prints for the recording: its rows and τ0.
 fn cli_rows(bag: &Path) -> (Vec<serde_json::Value>, f64) {
     let out = Command::new(env!("CARGO_BIN_EXE_fdavar"))

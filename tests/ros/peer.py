@@ -12,6 +12,9 @@ Scenarios:
   sim_time     publish rosgraph_msgs/Clock on /clock and see the node's /diagnostics stamps follow it.
   bad_input    publish NaN, backwards, duplicate and zero stamps, a gap, then go silent; the node
                must count each kind and report stale input as ERROR.
+  temperature  publish Imu at 200 Hz and sensor_msgs/Temperature at 10 Hz for 15 s, the temperature
+               ramping 20 -> 40 degC and gyro_x following it at 2e-4 rad/s/K; report the
+               temperature coefficient /diagnostics shows for gyro_x and gyro_y.
   suggestions N  while `fdavar play` replays N samples, wait until the node counted them, then
                report each axis's suggestions, level and message from /diagnostics (and the typed
                ~/gyro_x/state suggestions when fdavar_msgs is importable); the test judges them.
@@ -401,6 +404,44 @@ def scenario_model(peer):
            after=after, results=results, ratio=b / a if a > 0 else None)
 
 
+def scenario_temperature(peer):
+    import random
+    from sensor_msgs.msg import Temperature
+    rng = random.Random(7)
+    temp_pub = peer.create_publisher(Temperature, "/temperature", qos_profile_sensor_data)
+    if not peer.wait_for_node() or not peer.wait_for_match():
+        finish(False, "fdavar_node not up / not matched")
+    if not peer.spin_until(lambda: temp_pub.get_subscription_count() > 0, 15.0):
+        finish(False, "fdavar_node did not subscribe /temperature")
+    seconds = 15.0
+    start = time.monotonic()
+    next_t = start
+    k = 0
+    while time.monotonic() < start + seconds:
+        celsius = 20.0 + 20.0 * (time.monotonic() - start) / seconds
+        peer.stamp_ns += 5_000_000
+        gx = 1e-3 * rng.gauss(0, 1) + 2e-4 * (celsius - 30.0)
+        peer.imu_pub.publish(peer.imu(peer.stamp_ns, gx=gx))
+        if k % 20 == 0:
+            t = Temperature()
+            t.header.frame_id = "imu_link"
+            t.header.stamp.sec = peer.stamp_ns // 1_000_000_000
+            t.header.stamp.nanosec = peer.stamp_ns % 1_000_000_000
+            t.temperature = celsius
+            temp_pub.publish(t)
+        k += 1
+        next_t += 0.005
+        rclpy.spin_once(peer, timeout_sec=max(0.0, next_t - time.monotonic()))
+    peer.diagnostics.clear()
+    peer.spin_until(lambda: len(peer.diagnostics) >= 1, 3.0)
+    if not peer.diagnostics:
+        finish(False, "no /diagnostics")
+    key = "temperature.coefficient_per_k [rad/s/K]"
+    last = peer.diagnostics[-1]
+    found = {a: kv(status(last, a), key) for a in ["gyro_x", "gyro_y"]}
+    finish(True, "", coefficient=found, sent=k)
+
+
 AXES = ["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"]
 
 
@@ -450,7 +491,7 @@ def main():
     {"diagnostics": scenario_diagnostics, "params": scenario_params,
      "sim_time": scenario_sim_time, "bad_input": scenario_bad_input, "flood": scenario_flood,
      "expect_samples": scenario_expect_samples, "model": scenario_model,
-     "suggestions": scenario_suggestions}[scenario](peer)
+     "suggestions": scenario_suggestions, "temperature": scenario_temperature}[scenario](peer)
 
 
 if __name__ == "__main__":

@@ -1,14 +1,19 @@
 //! Benchmark of `fdavar_node` under a 2 kHz IMU: its CPU share and its receive-to-update latency.
 //!
 //! ```text
-//! cargo bench --bench node_load -- [RATE_HZ] [SECONDS]      (defaults 2000 Hz, 20 s)
+//! cargo bench --bench node_load -- [RATE_HZ] [SECONDS] [DIAGNOSIS_PERIOD_S] [SINUSOID]
 //! ```
+//! (defaults 2000 Hz, 20 s, the node's default diagnosis period, 10 s (0 turns it off), and no
+//! sinusoid; SINUSOID = a peak amplitude in rad/s adds a 2 Hz sinusoid to gyro_x, so that its
+//! model fails and each diagnosis of that axis refits every candidate effect: the costly case).
 //! Starts the release `fdavar_node` on ROS_DOMAIN_ID 90, publishes `sensor_msgs/Imu` at RATE_HZ from
 //! this process (ros2-client, best effort), and reads
 //! - CPU share: the node's user+system time (/proc/PID/stat) over the publishing wall time;
 //! - latency: the node's own `latency_p50_ms` / `latency_p99_ms` from `/diagnostics` (time from
 //!   taking a message off DDS to the end of its analysis update, over the last 8192 samples);
-//! - samples counted and drops (a full analysis queue).
+//! - samples counted and drops (a full analysis queue);
+//! - the cost of the latest whole-run diagnosis of gyro_x (`diagnosis_ms`), which runs on the
+//!   analysis thread, one axis per publication.
 //!
 //! Not a test: numbers depend on the machine; nothing is asserted.
 
@@ -39,12 +44,20 @@ fn main() {
         .collect();
     let rate_hz: f64 = args.first().and_then(|a| a.parse().ok()).unwrap_or(2000.0);
     let seconds: f64 = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(20.0);
+    let diagnosis_s: f64 = args.get(2).and_then(|a| a.parse().ok()).unwrap_or(10.0);
+    let diagnosis = format!("diagnosis_period_s:={diagnosis_s:?}");
+    let sinusoid: f64 = args.get(3).and_then(|a| a.parse().ok()).unwrap_or(0.0);
 
     let mut child = Command::new(env!("CARGO_BIN_EXE_fdavar_node"))
         .args([
             "--ros-args",
             "-p",
             "publish_rate_hz:=2.0",
+            "-p",
+            &diagnosis,
+            // The bench reads /diagnostics 1.5 s after its last message: not stale yet.
+            "-p",
+            "stale_timeout_s:=5.0",
             "--log-level",
             "warn",
         ])
@@ -94,9 +107,11 @@ fn main() {
         x ^= x >> 7;
         x ^= x << 17;
         let v = (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+        let t = k as f64 / rate_hz;
+        let hidden = sinusoid * (2.0 * std::f64::consts::PI * 2.0 * t).sin();
         let sample = ImuSample {
             stamp_ns: 1_000_000_000 + (k as f64 * 1e9 / rate_hz) as i64,
-            gyro: [1e-3 * v, -1e-3 * v, 2e-3 * v],
+            gyro: [1e-3 * v + hidden, -1e-3 * v, 2e-3 * v],
             accel: [1e-2 * v, 0.0, 9.81],
         };
         let _ = imu.publish(Imu::from_sample(&sample, "imu_link").unwrap());
@@ -125,11 +140,15 @@ fn main() {
     };
     println!(
         "fdavar_node at {rate_hz} Hz for {wall:.1} s: sent {n}, counted {} samples, {} drops; \
-         CPU {:.1} % of one core; receive-to-update latency p50 {} ms, p99 {} ms",
+         CPU {:.1} % of one core; receive-to-update latency p50 {} ms, p99 {} ms; diagnosis \
+         every {diagnosis_s} s (gyro_x sinusoid {sinusoid} rad/s), last one on gyro_x {} ms, \
+         suggestions [{}]",
         get("samples"),
         get("drops"),
         100.0 * cpu_s / wall,
         get("latency_p50_ms"),
         get("latency_p99_ms"),
+        get("diagnosis_ms"),
+        get("suggestions"),
     );
 }

@@ -14,9 +14,16 @@
 //! accel axes (gyro axes only), and for `noise_burst` / `bias_step` a DAVAR event or, without
 //! events, their own estimator's significant statistic (windowed-variance change, mean contrast).
 //! Suggestions are sorted best first (lowest fit_error after).
+//!
+//! [`diagnose_curve`] is the same criterion on Allan points alone (a live node's whole-run Allan
+//! variance): spectral effects only, since the time-domain ones need the samples.
 
+use crate::allan::AllanPoint;
 use crate::model::effects::{Domain, EffectKind, Evidence};
-use crate::model::fit::{fit, prepare, AxisInput, FitError, FitOptions, FittedModel, ParamValue};
+use crate::model::fit::{
+    fit, fit_curve, prepare, AxisInput, CurveFit, FitError, FitOptions, FittedModel, FittedTerm,
+    ParamValue,
+};
 use crate::model::spec::ModelSpec;
 use crate::model::timedomain;
 use serde::{Deserialize, Serialize};
@@ -102,6 +109,53 @@ pub fn diagnose(
             }
         }
     }
+    best_first(&mut scored, registry);
+    let (suggestions, after) = scored.into_iter().unzip();
+    Ok(Diagnosis {
+        fit: before,
+        suggestions,
+        after,
+    })
+}
+
+/// Scores every spectral effect of `registry` that `model` lacks against a curve of Allan points.
+///
+/// Why apart from [`diagnose`]: a live node keeps a streaming whole-run Allan variance, not the
+/// samples, so only the spectral refits are possible; the criterion (gate, penalty, effect size,
+/// order) is the same code as [`diagnose`]'s. Time-domain kinds in `model` are ignored, as in
+/// [`fit_curve`]. Cost: one [`fit_curve`] per candidate when the model fails, one otherwise.
+///
+/// # Errors
+/// The errors of [`fit_curve`] for the model itself (too few points, degenerate input); a
+/// candidate whose refit fails is skipped.
+pub fn diagnose_curve(
+    points: &[AllanPoint],
+    model: &[&'static dyn EffectKind],
+    registry: &[&'static dyn EffectKind],
+    weight_iterations: usize,
+) -> Result<Vec<Suggestion>, FitError> {
+    let before = fit_curve(points, model, weight_iterations)?;
+    let mut scored: Vec<(Suggestion, ())> = Vec::new();
+    if before.fit_error > COMPLETE_FIT_ERROR {
+        let lacking = registry
+            .iter()
+            .filter(|k| k.domain() == Domain::Spectral && !model.iter().any(|m| m.id() == k.id()));
+        for &kind in lacking {
+            let mut kinds = model.to_vec();
+            kinds.push(kind);
+            let Ok(after) = fit_curve(points, &kinds, weight_iterations) else {
+                continue;
+            };
+            scored.extend(score(kind, &before, &after).map(|s| (s, ())));
+        }
+    }
+    best_first(&mut scored, registry);
+    Ok(scored.into_iter().map(|(s, ())| s).collect())
+}
+
+/// Sorts suggestions best first: lowest fit_error after, a driven effect preferred by
+/// [`DRIVER_PREFERENCE`].
+fn best_first<T>(scored: &mut [(Suggestion, T)], registry: &[&'static dyn EffectKind]) {
     let rank = |s: &Suggestion| {
         let driven = registry
             .iter()
@@ -114,12 +168,57 @@ pub fn diagnose(
         }
     };
     scored.sort_by(|a, b| rank(&a.0).total_cmp(&rank(&b.0)));
-    let (suggestions, after) = scored.into_iter().unzip();
-    Ok(Diagnosis {
-        fit: before,
-        suggestions,
-        after,
-    })
+}
+
+/// What the penalised criterion reads from a fit: a whole-record [`FittedModel`] or the
+/// [`CurveFit`] of Allan points alone.
+trait Scored {
+    /// τ points fitted.
+    fn points(&self) -> usize;
+    /// Free parameters.
+    fn n_params(&self) -> usize;
+    /// Σ z².
+    fn chi2(&self) -> f64;
+    /// RMS of z.
+    fn fit_error(&self) -> f64;
+    /// The term of effect `id`.
+    fn term(&self, id: &str) -> Option<&FittedTerm>;
+}
+
+impl Scored for FittedModel {
+    fn points(&self) -> usize {
+        self.points.len()
+    }
+    fn n_params(&self) -> usize {
+        self.n_params
+    }
+    fn chi2(&self) -> f64 {
+        self.chi2
+    }
+    fn fit_error(&self) -> f64 {
+        self.fit_error
+    }
+    fn term(&self, id: &str) -> Option<&FittedTerm> {
+        FittedModel::term(self, id)
+    }
+}
+
+impl Scored for CurveFit {
+    fn points(&self) -> usize {
+        self.points.len()
+    }
+    fn n_params(&self) -> usize {
+        self.n_params
+    }
+    fn chi2(&self) -> f64 {
+        self.chi2
+    }
+    fn fit_error(&self) -> f64 {
+        self.fit_error
+    }
+    fn term(&self, id: &str) -> Option<&FittedTerm> {
+        self.terms.iter().find(|t| t.effect == id)
+    }
 }
 
 /// Whether the recording holds the evidence a time-domain effect needs before it is tried.
@@ -175,16 +274,12 @@ fn score_time_domain(
 }
 
 /// The suggestion for `kind` if the gain from `before` to `after` passes the criterion.
-fn score(
-    kind: &'static dyn EffectKind,
-    before: &FittedModel,
-    after: &FittedModel,
-) -> Option<Suggestion> {
-    let k = before.points.len().max(2) as f64;
-    let extra = after.n_params.saturating_sub(before.n_params).max(1) as f64;
+fn score<F: Scored>(kind: &'static dyn EffectKind, before: &F, after: &F) -> Option<Suggestion> {
+    let k = before.points().max(2) as f64;
+    let extra = after.n_params().saturating_sub(before.n_params()).max(1) as f64;
     let threshold = PENALTY_PER_PARAM * extra * k.ln();
-    let delta = before.chi2 - after.chi2;
-    if !(delta > threshold && after.fit_error * MIN_IMPROVEMENT < before.fit_error) {
+    let delta = before.chi2() - after.chi2();
+    if !(delta > threshold && after.fit_error() * MIN_IMPROVEMENT < before.fit_error()) {
         return None;
     }
     let term = after.term(kind.id())?;
@@ -198,7 +293,7 @@ fn score(
     Some(Suggestion {
         effect: kind.id().to_string(),
         params: term.params.clone(),
-        fit_error_after: after.fit_error,
+        fit_error_after: after.fit_error(),
         explanation: term.explanation.clone(),
         delta_chi2: delta,
         threshold,

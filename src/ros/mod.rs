@@ -19,6 +19,7 @@ pub mod names;
 pub mod node;
 pub mod params;
 pub mod play;
+pub mod temperature;
 
 pub use node::{run, NodeConfig, NodeError};
 

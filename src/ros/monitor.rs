@@ -10,9 +10,9 @@
 
 use crate::msgs::builtin_interfaces::Time;
 use crate::msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue, Level};
-use crate::msgs::fdavar_msgs::AxisState;
+use crate::msgs::fdavar_msgs::{AxisState, Suggestion};
 use crate::msgs::std_msgs::Header;
-use crate::signal::{Axis, ImuSample, PeriodEstimator, StampCheck, StampClass};
+use crate::signal::{Axis, ImuSample, PeriodEstimator, StampCheck, StampClass, TemperatureSample};
 
 /// The F-DAVAR engine as the node drives it: samples in, per-axis rows out.
 ///
@@ -23,6 +23,8 @@ pub trait RowEngine: Send {
     /// Feeds one checked sample (finite values, stamps strictly increasing); returns the rows that
     /// became complete, as (axis, state with the analysis fields filled).
     fn push(&mut self, sample: &ImuSample) -> Vec<(Axis, AxisState)>;
+    /// Feeds one reading of the temperature topic (only when the node subscribes it).
+    fn push_temperature(&mut self, _t: &TemperatureSample) {}
     /// Applies a live parameter change (model, window settings).
     ///
     /// # Errors
@@ -33,6 +35,13 @@ pub trait RowEngine: Send {
     /// failing_tau). Called at the publishing rate on the latest row of each axis, not per row:
     /// a fit costs far more than a row.
     fn fit(&self, _state: &mut AxisState) {}
+
+    /// The effects the model in force lacks on `axis` over the whole run so far, best first.
+    /// Far costlier than [`RowEngine::fit`] (one refit per candidate effect): the monitor calls
+    /// it every `diagnosis_period_s`, one axis per publication.
+    fn diagnose(&self, _axis: Axis) -> Vec<Suggestion> {
+        Vec::new()
+    }
 }
 
 /// A live change for the engine.
@@ -112,6 +121,8 @@ pub struct MonitorSettings {
     pub stale_timeout_s: f64,
     /// fit_error above this is a failing model: WARN.
     pub fit_error_warn: f64,
+    /// Seconds of node time between two diagnoses of each axis (0: no diagnosis).
+    pub diagnosis_period_s: f64,
 }
 
 impl Default for MonitorSettings {
@@ -119,6 +130,7 @@ impl Default for MonitorSettings {
         MonitorSettings {
             stale_timeout_s: 1.0,
             fit_error_warn: 3.0,
+            diagnosis_period_s: 10.0,
         }
     }
 }
@@ -148,6 +160,14 @@ pub struct Monitor {
     receive_time_stamps: Option<bool>,
     /// Rows kept for [`Monitor::drain_rows`] when recording is on.
     new_rows: Option<Vec<AxisState>>,
+    /// The latest diagnosis of each axis.
+    suggestions: [Vec<Suggestion>; 6],
+    /// What the latest diagnosis of each axis cost, ms of the analysis thread.
+    diagnosis_ms: [Option<f64>; 6],
+    /// Node time the last diagnosis round started, ns.
+    last_diagnosis_ns: Option<i64>,
+    /// Axes of the current round still to diagnose (one per publication).
+    diagnosis_due: Vec<Axis>,
 }
 
 impl Monitor {
@@ -170,6 +190,10 @@ impl Monitor {
             recent_non_finite: [0; 6],
             new_rows: None,
             receive_time_stamps: None,
+            suggestions: Default::default(),
+            diagnosis_ms: [None; 6],
+            last_diagnosis_ns: None,
+            diagnosis_due: Vec::new(),
         }
     }
 
@@ -188,6 +212,10 @@ impl Monitor {
 
     /// Changes the settings (live parameters).
     pub fn set_settings(&mut self, settings: MonitorSettings) {
+        if settings.diagnosis_period_s == 0.0 {
+            self.suggestions = Default::default();
+            self.diagnosis_due.clear();
+        }
         self.settings = settings;
     }
 
@@ -196,9 +224,43 @@ impl Monitor {
     /// # Errors
     /// The engine's reason, or that no engine runs.
     pub fn reconfigure(&mut self, change: Change) -> Result<(), String> {
+        let new_model = matches!(change, Change::Model(_));
         match self.engine.as_mut() {
-            Some(e) => e.reconfigure(change),
-            None => Err("no F-DAVAR engine in this build".to_string()),
+            Some(e) => e.reconfigure(change)?,
+            None => return Err("no F-DAVAR engine in this build".to_string()),
+        }
+        if new_model {
+            // Suggestions name what the old model lacked: diagnose the new one at once.
+            self.suggestions = Default::default();
+            self.last_diagnosis_ns = None;
+        }
+        Ok(())
+    }
+
+    /// Diagnoses the next axis due, if any: a round of all six axes starts every
+    /// `diagnosis_period_s` of node time, one axis per call, so that a publication never waits
+    /// for more than one axis's diagnosis (the samples queue meanwhile).
+    fn diagnose_next(&mut self, now_ns: i64) {
+        let period = self.settings.diagnosis_period_s;
+        let Some(engine) = self.engine.as_ref().filter(|_| period > 0.0) else {
+            return;
+        };
+        // Due after a period, at start, and when the node's time went backwards (sim time reset).
+        let due = self
+            .last_diagnosis_ns
+            .is_none_or(|t| now_ns < t || (now_ns - t) as f64 * 1e-9 >= period);
+        if due && self.diagnosis_due.is_empty() {
+            self.last_diagnosis_ns = Some(now_ns);
+            self.diagnosis_due = Axis::ALL.iter().rev().copied().collect();
+        }
+        // Only axes with a row: before that the whole run is too short to say anything.
+        while let Some(axis) = self.diagnosis_due.pop() {
+            if self.latest[axis.index()].is_some() {
+                let start = std::time::Instant::now();
+                self.suggestions[axis.index()] = engine.diagnose(axis);
+                self.diagnosis_ms[axis.index()] = Some(start.elapsed().as_secs_f64() * 1e3);
+                return;
+            }
         }
     }
 
@@ -305,6 +367,14 @@ impl Monitor {
         log
     }
 
+    /// Feeds one reading of the temperature topic to the engine (the live temperature
+    /// coefficient).
+    pub fn push_temperature(&mut self, t: &TemperatureSample) {
+        if let Some(engine) = self.engine.as_mut() {
+            engine.push_temperature(t);
+        }
+    }
+
     /// Closes the current rate window: updates `rate_hz` and detects a rate change.
     fn close_rate_window(&mut self) -> Option<&'static str> {
         let (first, last, n) = self.rate_window.take()?;
@@ -329,6 +399,7 @@ impl Monitor {
         now_ns: i64,
     ) -> (DiagnosticArray, Vec<AxisState>, Option<&'static str>) {
         let log = self.close_rate_window();
+        self.diagnose_next(now_ns);
         let stale = match self.last_receive_ns {
             None => Some("no IMU message received yet".to_string()),
             Some(t) if (now_ns - t) as f64 * 1e-9 > self.settings.stale_timeout_s => Some(format!(
@@ -349,6 +420,7 @@ impl Monitor {
                 if let Some(engine) = &self.engine {
                     engine.fit(&mut s);
                 }
+                s.suggestions.clone_from(&self.suggestions[i]);
                 s
             });
             let latest = fitted.as_ref();
@@ -366,6 +438,9 @@ impl Monitor {
                     self.rate_hz.map_or("".to_string(), |r| format!("{r:.3}")),
                 ),
             ];
+            if let Some(ms) = self.diagnosis_ms[i] {
+                values.push(KeyValue::new("diagnosis_ms", format!("{ms:.3}")));
+            }
             let (level, message) = if let Some(why) = &stale {
                 (Level::Error, why.clone())
             } else if self.recent_non_finite[i] > 0 && self.latest[i].is_none() {
@@ -396,6 +471,17 @@ impl Monitor {
                         format!(
                             "model fails: fit_error {:.2}; suggestions: [{}]",
                             s.fit_error,
+                            suggestions.join(", ")
+                        ),
+                    )
+                } else if let Some(best) = s.suggestions.first() {
+                    (
+                        Level::Warn,
+                        format!(
+                            "model lacks {} over the whole run (whole-run fit_error {:.2} with \
+                             it); suggestions: [{}]",
+                            best.effect,
+                            best.fit_error_after,
                             suggestions.join(", ")
                         ),
                     )
@@ -599,5 +685,78 @@ mod tests {
         assert_eq!(states[0].header.frame_id, "imu");
         assert_eq!(value(&a, 0, "window_length"), "171");
         assert_eq!(level(&a, 0), Level::Ok as u8);
+    }
+
+    /// Rows on every axis; a diagnosis that names `sinusoid` on gyro_x and counts its calls.
+    struct Diagnosing(std::sync::Arc<std::sync::Mutex<Vec<Axis>>>);
+    impl RowEngine for Diagnosing {
+        fn push(&mut self, s: &ImuSample) -> Vec<(Axis, AxisState)> {
+            Axis::ALL
+                .iter()
+                .map(|&a| {
+                    let state = AxisState {
+                        axis: a.name().into(),
+                        analysis_time_s: s.stamp_ns as f64 * 1e-9,
+                        fit_error: 1.0,
+                        ..AxisState::default()
+                    };
+                    (a, state)
+                })
+                .collect()
+        }
+        fn reconfigure(&mut self, _: Change) -> Result<(), String> {
+            Ok(())
+        }
+        fn diagnose(&self, axis: Axis) -> Vec<Suggestion> {
+            self.0.lock().unwrap().push(axis);
+            if axis == Axis::GyroX {
+                vec![Suggestion {
+                    effect: "sinusoid".into(),
+                    fit_error_after: 0.9,
+                    ..Suggestion::default()
+                }]
+            } else {
+                Vec::new()
+            }
+        }
+    }
+
+    #[test]
+    fn the_diagnosis_runs_one_axis_per_report_each_period_and_warns_with_a_suggestion() {
+        let calls = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+        let settings = MonitorSettings {
+            diagnosis_period_s: 2.0,
+            stale_timeout_s: 100.0,
+            ..MonitorSettings::default()
+        };
+        let mut m = Monitor::new(settings, Some(Box::new(Diagnosing(calls.clone()))));
+        let mut t = 0;
+        let mut reports = Vec::new();
+        // 10 s of samples at 100 Hz, a report every 0.1 s.
+        for k in 1..=1000 {
+            t += 10 * MS;
+            m.push(sample(t, 0.0), "imu", t);
+            if k % 10 == 0 {
+                reports.push(m.report(t).0);
+            }
+        }
+        let calls = calls.lock().unwrap().clone();
+        // A round of six every 2 s over 10 s: five rounds, one axis per report, in axis order.
+        assert_eq!(calls.len(), 30, "{calls:?}");
+        assert_eq!(&calls[..6], &Axis::ALL);
+        let last = reports.last().unwrap();
+        assert_eq!(level(last, 0), Level::Warn as u8, "{:?}", last.status[0]);
+        assert_eq!(value(last, 0, "suggestions"), "sinusoid");
+        assert!(last.status[0].message.contains("sinusoid"));
+        assert_eq!(level(last, 1), Level::Ok as u8);
+        assert_eq!(value(last, 1, "suggestions"), "");
+        // Period 0: off, and the suggestions are cleared.
+        m.set_settings(MonitorSettings {
+            diagnosis_period_s: 0.0,
+            ..settings
+        });
+        let (a, states, _) = m.report(t);
+        assert_eq!(level(&a, 0), Level::Ok as u8);
+        assert!(states.iter().all(|s| s.suggestions.is_empty()));
     }
 }

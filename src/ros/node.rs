@@ -201,6 +201,7 @@ enum Input {
         /// When the receive loop took it off DDS (for the receive-to-update latency).
         received: Instant,
     },
+    Temperature(crate::signal::TemperatureSample),
 }
 
 /// Receive-to-update latencies of the most recent samples (a bounded ring).
@@ -458,6 +459,7 @@ pub fn run(
     let drops = Arc::new(AtomicU64::new(0));
     let settings = MonitorSettings {
         stale_timeout_s: config.double("stale_timeout_s"),
+        diagnosis_period_s: config.double("diagnosis_period_s"),
         ..MonitorSettings::default()
     };
     let mut monitor = Monitor::new(settings, engine);
@@ -651,8 +653,17 @@ fn receive_loop(
             }
         }
         if let Some(t) = temperature.as_deref() {
-            // Temperature is not analysed yet by the node: drain so the reader does not hold it.
-            while let Ok(Some(_)) = t.take() {}
+            while let Ok(Some((msg, _))) = t.take() {
+                let reading = crate::signal::TemperatureSample {
+                    stamp_ns: msg.header.stamp.to_ns(),
+                    celsius: msg.temperature,
+                };
+                // A full queue drops the reading: a slow topic, one reading less in a block mean.
+                if let Err(TrySendError::Disconnected(_)) = tx.try_send(Input::Temperature(reading))
+                {
+                    return Ok(());
+                }
+            }
         }
     }
     Ok(())
@@ -694,6 +705,7 @@ impl Analysis {
                         self.dump_rows();
                     }
                 }
+                Ok(Input::Temperature(reading)) => self.monitor.push_temperature(&reading),
                 Err(RecvTimeoutError::Timeout) => {}
                 Err(RecvTimeoutError::Disconnected) => break,
             }
@@ -764,6 +776,10 @@ impl Analysis {
             }
             ("stale_timeout_s", ParameterValue::Double(s)) => {
                 self.settings.stale_timeout_s = *s;
+                self.monitor.set_settings(self.settings);
+            }
+            ("diagnosis_period_s", ParameterValue::Double(s)) => {
+                self.settings.diagnosis_period_s = *s;
                 self.monitor.set_settings(self.settings);
             }
             ("model", ParameterValue::String(s)) => {

@@ -41,6 +41,14 @@ fn positive_double(v: &ParameterValue, max: f64) -> Result<(), String> {
     }
 }
 
+fn non_negative_double(v: &ParameterValue, max: f64) -> Result<(), String> {
+    match v {
+        ParameterValue::Double(x) if x.is_finite() && *x >= 0.0 && *x <= max => Ok(()),
+        ParameterValue::Double(x) => Err(format!("must be in [0, {max}], got {x}")),
+        other => Err(format!("must be a double, got {other:?}")),
+    }
+}
+
 fn int_in(v: &ParameterValue, lo: i64, hi: i64) -> Result<(), String> {
     match v {
         ParameterValue::Integer(i) if (lo..=hi).contains(i) => Ok(()),
@@ -127,6 +135,14 @@ pub static NODE_PARAMS: &[ParamSpec] = &[
         doc: "Noise model fitted to each row: effect ids or aliases, comma-separated (e.g. N,B,K).",
         default: || ParameterValue::String("N,B,K".to_string()),
         validate: model_spec,
+        live: true,
+    },
+    ParamSpec {
+        name: "diagnosis_period_s",
+        doc: "Seconds between two diagnoses of the whole run (suggestions), one axis per \
+              publication; 0 turns the diagnosis off. [0, 3600].",
+        default: || ParameterValue::Double(10.0),
+        validate: |v| non_negative_double(v, 3600.0),
         live: true,
     },
     ParamSpec {
@@ -410,6 +426,15 @@ mod tests {
         assert!(validate("model", &ParameterValue::String("N,B,K,sinusoid".into())).is_ok());
         let e = validate("model", &ParameterValue::String("N,warp_drive".into())).unwrap_err();
         assert!(e.to_string().contains("warp_drive"), "{e}");
+        // The diagnosis period: 0 turns it off, negative or non-finite is refused.
+        assert!(validate("diagnosis_period_s", &ParameterValue::Double(0.0)).is_ok());
+        assert_eq!(
+            validate("diagnosis_period_s", &ParameterValue::Integer(5)).unwrap(),
+            ParameterValue::Double(5.0)
+        );
+        let e = validate("diagnosis_period_s", &ParameterValue::Double(-1.0)).unwrap_err();
+        assert!(e.to_string().contains("[0, 3600]"), "{e}");
+        assert!(validate("diagnosis_period_s", &ParameterValue::Double(f64::NAN)).is_err());
     }
 
     #[test]

@@ -12,6 +12,12 @@ Scenarios:
   sim_time     publish rosgraph_msgs/Clock on /clock and see the node's /diagnostics stamps follow it.
   bad_input    publish NaN, backwards, duplicate and zero stamps, a gap, then go silent; the node
                must count each kind and report stale input as ERROR.
+  temperature  publish Imu at 200 Hz and sensor_msgs/Temperature at 10 Hz for 15 s, the temperature
+               ramping 20 -> 40 degC and gyro_x following it at 2e-4 rad/s/K; report the
+               temperature coefficient /diagnostics shows for gyro_x and gyro_y.
+  suggestions N  while `fdavar play` replays N samples, wait until the node counted them, then
+               report each axis's suggestions, level and message from /diagnostics (and the typed
+               ~/gyro_x/state suggestions when fdavar_msgs is importable); the test judges them.
 """
 import json
 import math
@@ -201,7 +207,8 @@ def scenario_params(peer):
     if listed is None:
         finish(False, "list_parameters did not answer")
     names = sorted(listed.result.names)
-    for want in ["publish_rate_hz", "queue_size", "model", "qos.reliable", "stale_timeout_s"]:
+    for want in ["publish_rate_hz", "queue_size", "model", "qos.reliable", "stale_timeout_s",
+                 "diagnosis_period_s"]:
         if want not in names:
             finish(False, f"parameter {want} not listed", names=names)
 
@@ -397,13 +404,94 @@ def scenario_model(peer):
            after=after, results=results, ratio=b / a if a > 0 else None)
 
 
+def scenario_temperature(peer):
+    import random
+    from sensor_msgs.msg import Temperature
+    rng = random.Random(7)
+    temp_pub = peer.create_publisher(Temperature, "/temperature", qos_profile_sensor_data)
+    if not peer.wait_for_node() or not peer.wait_for_match():
+        finish(False, "fdavar_node not up / not matched")
+    if not peer.spin_until(lambda: temp_pub.get_subscription_count() > 0, 15.0):
+        finish(False, "fdavar_node did not subscribe /temperature")
+    seconds = 15.0
+    start = time.monotonic()
+    next_t = start
+    k = 0
+    while time.monotonic() < start + seconds:
+        celsius = 20.0 + 20.0 * (time.monotonic() - start) / seconds
+        peer.stamp_ns += 5_000_000
+        gx = 1e-3 * rng.gauss(0, 1) + 2e-4 * (celsius - 30.0)
+        peer.imu_pub.publish(peer.imu(peer.stamp_ns, gx=gx))
+        if k % 20 == 0:
+            t = Temperature()
+            t.header.frame_id = "imu_link"
+            t.header.stamp.sec = peer.stamp_ns // 1_000_000_000
+            t.header.stamp.nanosec = peer.stamp_ns % 1_000_000_000
+            t.temperature = celsius
+            temp_pub.publish(t)
+        k += 1
+        next_t += 0.005
+        rclpy.spin_once(peer, timeout_sec=max(0.0, next_t - time.monotonic()))
+    peer.diagnostics.clear()
+    peer.spin_until(lambda: len(peer.diagnostics) >= 1, 3.0)
+    if not peer.diagnostics:
+        finish(False, "no /diagnostics")
+    key = "temperature.coefficient_per_k [rad/s/K]"
+    last = peer.diagnostics[-1]
+    found = {a: kv(status(last, a), key) for a in ["gyro_x", "gyro_y"]}
+    finish(True, "", coefficient=found, sent=k)
+
+
+AXES = ["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"]
+
+
+def scenario_suggestions(peer):
+    want = int(sys.argv[2])
+    if not peer.wait_for_node():
+        finish(False, "fdavar not in the node graph")
+    typed = []
+    try:
+        from fdavar_msgs.msg import AxisState  # built by colcon from msg/
+        peer.create_subscription(AxisState, f"{NODE}/gyro_x/state", typed.append, 10)
+        have_typed = True
+    except ImportError:
+        have_typed = False
+
+    def counted():
+        return bool(peer.diagnostics) and int(
+            kv(status(peer.diagnostics[-1], "gyro_x"), "samples")) >= want
+
+    if not peer.spin_until(counted, 90.0):
+        finish(False, f"the node did not count {want} samples")
+    # A whole diagnosis round after the last sample (the test sets diagnosis_period_s 1 s and
+    # publishes at 10 Hz: six axes in 0.6 s).
+    peer.spin_until(lambda: False, 3.0)
+    last = peer.diagnostics[-1]
+    result = {
+        "suggestions": {a: kv(status(last, a), "suggestions") for a in AXES},
+        "levels": {a: level(status(last, a)) for a in AXES},
+        "messages": {a: status(last, a).message for a in AXES},
+        "have_typed": have_typed,
+    }
+    if have_typed:
+        if not typed:
+            finish(False, "no fdavar_msgs/AxisState on ~/gyro_x/state", **result)
+        result["typed"] = [
+            {"effect": x.effect, "fit_error_after": x.fit_error_after,
+             "explanation": x.explanation,
+             "params": {p.name: [p.value, p.unit] for p in x.params}}
+            for x in typed[-1].suggestions]
+    finish(True, "", **result)
+
+
 def main():
     rclpy.init()
     peer = Peer()
     scenario = sys.argv[1]
     {"diagnostics": scenario_diagnostics, "params": scenario_params,
      "sim_time": scenario_sim_time, "bad_input": scenario_bad_input, "flood": scenario_flood,
-     "expect_samples": scenario_expect_samples, "model": scenario_model}[scenario](peer)
+     "expect_samples": scenario_expect_samples, "model": scenario_model,
+     "suggestions": scenario_suggestions, "temperature": scenario_temperature}[scenario](peer)
 
 
 if __name__ == "__main__":

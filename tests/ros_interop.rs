@@ -390,20 +390,25 @@ fn sinusoid_samples() -> Vec<fdavar::signal::ImuSample> {
         .collect()
 }
 
-#[test]
-fn the_live_diagnosis_names_a_hidden_sinusoid_and_nothing_on_a_clean_axis() {
-    // In-process (no DDS): the node's engine and monitor, fed the recording, reporting at 10 Hz of
-    // sample time with a diagnosis every second.
+/// The node's engine and monitor in process (no DDS), model N,B,K, default DAVAR settings.
+fn in_process_monitor(diagnosis_period_s: f64) -> fdavar::ros::monitor::Monitor {
     use fdavar::ros::engine::{model_kinds, PipelineEngine};
     use fdavar::ros::monitor::{Monitor, MonitorSettings};
     let config = fdavar::params::config_from_params(&Default::default()).unwrap();
     let engine = PipelineEngine::new(config, model_kinds("N,B,K").unwrap()).unwrap();
     let settings = MonitorSettings {
-        diagnosis_period_s: 1.0,
+        diagnosis_period_s,
         stale_timeout_s: 10.0,
         ..MonitorSettings::default()
     };
-    let mut monitor = Monitor::new(settings, Some(Box::new(engine)));
+    Monitor::new(settings, Some(Box::new(engine)))
+}
+
+#[test]
+fn the_live_diagnosis_names_a_hidden_sinusoid_and_nothing_on_a_clean_axis() {
+    // In-process (no DDS): the node's engine and monitor, fed the recording, reporting at 10 Hz of
+    // sample time with a diagnosis every second.
+    let mut monitor = in_process_monitor(1.0);
     let mut last = None;
     for (k, s) in sinusoid_samples().into_iter().enumerate() {
         let t = s.stamp_ns;
@@ -531,18 +536,9 @@ fn a_played_recording_with_a_hidden_sinusoid_gets_sinusoid_suggested_over_dds() 
 fn a_temperature_driven_axis_gets_a_live_temperature_coefficient() {
     // In-process: the node's engine and monitor with the temperature topic's readings (2 Hz),
     // gyro_x = 2e-4 rad/s/K·(T − 30 °C) + white noise, T from 20 to 40 °C over 100 s.
-    use fdavar::ros::engine::{model_kinds, PipelineEngine};
-    use fdavar::ros::monitor::{Monitor, MonitorSettings};
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
-    let config = fdavar::params::config_from_params(&Default::default()).unwrap();
-    let engine = PipelineEngine::new(config, model_kinds("N,B,K").unwrap()).unwrap();
-    let settings = MonitorSettings {
-        stale_timeout_s: 10.0,
-        diagnosis_period_s: 0.0,
-        ..MonitorSettings::default()
-    };
-    let mut monitor = Monitor::new(settings, Some(Box::new(engine)));
+    let mut monitor = in_process_monitor(0.0);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
     let noise = Normal::new(0.0, 1e-3).unwrap();
     let n = 20_000_i64;

@@ -123,18 +123,25 @@ def kv(s, key):
     return None
 
 
+def subscribe_typed_state(peer):
+    """Subscribes gyro_x's typed AxisState when fdavar_msgs (built by colcon from msg/) imports.
+
+    Returns the list the messages are appended to and whether the type was available."""
+    typed = []
+    try:
+        from fdavar_msgs.msg import AxisState
+    except ImportError:
+        return typed, False
+    peer.create_subscription(AxisState, f"{NODE}/gyro_x/state", typed.append, 10)
+    return typed, True
+
+
 def scenario_diagnostics(peer):
     if not peer.wait_for_node():
         finish(False, "fdavar not in the node graph", nodes=peer.get_node_names_and_namespaces())
     if not peer.wait_for_match():
         finish(False, "fdavar_node's imu subscription never matched our publisher")
-    typed = []
-    try:
-        from fdavar_msgs.msg import AxisState  # built by colcon from msg/
-        peer.create_subscription(AxisState, f"{NODE}/gyro_x/state", typed.append, 10)
-        have_typed = True
-    except ImportError:
-        have_typed = False
+    typed, have_typed = subscribe_typed_state(peer)
     peer.publish_for(4.0)
     peer.spin_until(lambda: len(peer.diagnostics) >= 2, 5.0)
     if not peer.diagnostics:
@@ -449,13 +456,7 @@ def scenario_suggestions(peer):
     want = int(sys.argv[2])
     if not peer.wait_for_node():
         finish(False, "fdavar not in the node graph")
-    typed = []
-    try:
-        from fdavar_msgs.msg import AxisState  # built by colcon from msg/
-        peer.create_subscription(AxisState, f"{NODE}/gyro_x/state", typed.append, 10)
-        have_typed = True
-    except ImportError:
-        have_typed = False
+    typed, have_typed = subscribe_typed_state(peer)
 
     def counted():
         return bool(peer.diagnostics) and int(

@@ -314,11 +314,7 @@ fn measure_spans(series: &[f64], tau0: f64, opts: &FitOptions) -> Vec<SpanMeasur
 /// The whole-record model of `fit` checked on one span: z at each of the span's τ (those with an
 /// EDF of at least [`MIN_SPAN_EDF`]), with the EDF of the model's noise mix for the span's length.
 /// Returns the span's RMS and its z values (pooled by the caller).
-fn check_span(
-    measure: &SpanMeasure,
-    fit: &CurveFit,
-    classes: &[NoiseClass],
-) -> (SpanCheck, Vec<f64>) {
+fn check_span(measure: &SpanMeasure, fit: &CurveFit) -> (SpanCheck, Vec<f64>) {
     let z: Vec<f64> = measure
         .points
         .iter()
@@ -328,7 +324,7 @@ fn check_span(
             let parts: Vec<(f64, NoiseClass)> = fit
                 .terms
                 .iter()
-                .zip(classes)
+                .zip(&fit.classes)
                 .map(|(t, &c)| (t.curve[i], c))
                 .collect();
             let model = fit.points[i].model;
@@ -555,23 +551,8 @@ impl Prepared {
         opts: &FitOptions,
     ) -> Result<FittedModel, FitError> {
         let sf = fit_points(&self.points, kinds, opts.weight_iterations, self.samples)?;
-        let classes: Vec<NoiseClass> = sf
-            .terms
-            .iter()
-            .map(|t| {
-                let kind = kinds.iter().find(|k| k.id() == t.effect);
-                let values: Vec<f64> = t.params.iter().map(|p| p.value).collect();
-                let slope = kind
-                    .and_then(|k| k.build(&values).ok())
-                    .and_then(|e| e.explain().avar_slope);
-                NoiseClass::from_slope(slope)
-            })
-            .collect();
-        let (spans, span_z): (Vec<SpanCheck>, Vec<Vec<f64>>) = self
-            .spans
-            .iter()
-            .map(|m| check_span(m, &sf, &classes))
-            .unzip();
+        let (spans, span_z): (Vec<SpanCheck>, Vec<Vec<f64>>) =
+            self.spans.iter().map(|m| check_span(m, &sf)).unzip();
         let span_fit_error = rms(&span_z.concat());
         let mut terms = self.time_terms.clone();
         terms.extend(sf.terms);
@@ -611,6 +592,8 @@ pub struct CurveFit {
     pub failing_tau: Vec<[f64; 2]>,
     /// Free parameters (amplitudes and shape parameters).
     pub n_params: usize,
+    /// The noise class of each term (same order), which sets the EDF of its share of an estimate.
+    pub classes: Vec<NoiseClass>,
 }
 
 /// Fits spectral effects to Allan points (one DAVAR row, or a whole record).
@@ -1002,19 +985,9 @@ impl<'a> Problem<'a> {
                 }
                 (lo, hi) = (hi, hi + 3f64.ln());
             }
-            let (mut a, mut b) = (scan_best.1 - step, scan_best.1 + step);
-            let g = 0.618_033_988_749_895;
-            for _ in 0..24 {
-                let (x1, x2) = (b - g * (b - a), a + g * (b - a));
-                let f1 = self.profile(j, x1.exp(), &refine_from, &scale, mean_rate, shapes, iters, PROFILE_ROUNDS)?.0;
-                let f2 = self.profile(j, x2.exp(), &refine_from, &scale, mean_rate, shapes, iters, PROFILE_ROUNDS)?.0;
-                if f1 < f2 {
-                    b = x2;
-                } else {
-                    a = x1;
-                }
-            }
-            let mid = 0.5 * (a + b);
+            let mid = golden_section(scan_best.1 - step, scan_best.1 + step, 24, |lq| {
+                Ok(self.profile(j, lq.exp(), &refine_from, &scale, mean_rate, shapes, iters, PROFILE_ROUNDS)?.0)
+            })?;
             let lq = if self.profile(j, mid.exp(), &refine_from, &scale, mean_rate, shapes, iters, PROFILE_ROUNDS)?.0 <= scan_best.0 {
                 mid
             } else {
@@ -1172,33 +1145,12 @@ impl<'a> Problem<'a> {
                         best = (c, trial[d]);
                     }
                 }
-                // Golden section on [best − h, best + h].
-                let (mut a, mut b) = ((best.1 - h).max(lo), (best.1 + h).min(hi));
-                let g = 0.618_033_988_749_895;
                 let eval = |v: f64, base: &Vec<f64>| -> Result<f64, FitError> {
                     let mut t = base.clone();
                     t[d] = v;
                     cost(&t)
                 };
-                let mut x1 = b - g * (b - a);
-                let mut x2 = a + g * (b - a);
-                let (mut f1, mut f2) = (eval(x1, &shapes)?, eval(x2, &shapes)?);
-                for _ in 0..30 {
-                    if f1 < f2 {
-                        b = x2;
-                        x2 = x1;
-                        f2 = f1;
-                        x1 = b - g * (b - a);
-                        f1 = eval(x1, &shapes)?;
-                    } else {
-                        a = x1;
-                        x1 = x2;
-                        f1 = f2;
-                        x2 = a + g * (b - a);
-                        f2 = eval(x2, &shapes)?;
-                    }
-                }
-                let mid = 0.5 * (a + b);
+                let mid = golden_section((best.1 - h).max(lo), (best.1 + h).min(hi), 30, |v| eval(v, &shapes))?;
                 shapes[d] = if eval(mid, &shapes)? <= best.0 { mid } else { best.1 };
             }
         }
@@ -1259,6 +1211,7 @@ impl<'a> Problem<'a> {
             terms,
             points,
             n_params,
+            classes: self.columns.iter().map(|c| c.class).collect(),
         })
     }
 
@@ -1345,6 +1298,36 @@ impl<'a> Problem<'a> {
         }
         Some(out)
     }
+}
+
+/// Golden-section search for the minimum of a unimodal `f` on [a, b]: `iterations` shrinkings of
+/// the bracket by 0.618, each with one new evaluation. Returns the final bracket's midpoint.
+fn golden_section(
+    mut a: f64,
+    mut b: f64,
+    iterations: usize,
+    mut f: impl FnMut(f64) -> Result<f64, FitError>,
+) -> Result<f64, FitError> {
+    const G: f64 = 0.618_033_988_749_895;
+    let mut x1 = b - G * (b - a);
+    let mut x2 = a + G * (b - a);
+    let (mut f1, mut f2) = (f(x1)?, f(x2)?);
+    for _ in 0..iterations {
+        if f1 < f2 {
+            b = x2;
+            x2 = x1;
+            f2 = f1;
+            x1 = b - G * (b - a);
+            f1 = f(x1)?;
+        } else {
+            a = x1;
+            x1 = x2;
+            f1 = f2;
+            x2 = a + G * (b - a);
+            f2 = f(x2)?;
+        }
+    }
+    Ok(0.5 * (a + b))
 }
 
 /// The fit's objective: Σ (edf/2)·(ln(meas/model) − bias(edf))², the log-normal approximation of the χ²

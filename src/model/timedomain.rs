@@ -148,35 +148,75 @@ fn finite_mean(x: &[f64]) -> f64 {
     }
 }
 
+/// A least-squares line y = a + b·x through points added one at a time (Welford updates): the
+/// whole-record regressions here and the node's live temperature coefficient share it.
+///
+/// # Formula
+/// ```text
+/// b = Sxy / Sxx,   σ_b² = (Syy − b·Sxy) / ((n − 2)·Sxx)
+/// ```
+/// with Sxx, Sxy, Syy the sums of products of deviations from the running means.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct LineFit {
+    n: u64,
+    mean_x: f64,
+    mean_y: f64,
+    sxx: f64,
+    sxy: f64,
+    syy: f64,
+}
+
+impl LineFit {
+    /// Adds the point (x, y).
+    pub fn add(&mut self, x: f64, y: f64) {
+        self.n += 1;
+        let n = self.n as f64;
+        let dx = x - self.mean_x;
+        let dy = y - self.mean_y;
+        self.mean_x += dx / n;
+        self.mean_y += dy / n;
+        self.sxx += dx * (x - self.mean_x);
+        self.sxy += dx * (y - self.mean_y);
+        self.syy += dy * (y - self.mean_y);
+    }
+
+    /// Points added.
+    pub fn len(&self) -> u64 {
+        self.n
+    }
+
+    /// True before the first point.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// (slope, its standard error), once there are three points and x moved.
+    pub fn slope(&self) -> Option<(f64, f64)> {
+        if self.n < 3 || self.sxx <= 0.0 {
+            return None;
+        }
+        let b = self.sxy / self.sxx;
+        let residual = (self.syy - b * self.sxy).max(0.0) / (self.n - 2) as f64;
+        Some((b, (residual / self.sxx).sqrt()))
+    }
+}
+
 /// Least-squares slope of `y` on `x` (both demeaned, NaN pairs skipped), its standard error, and
-/// the squared t statistic (the strength).
+/// the squared t statistic (the strength): a [`LineFit`] through the pairs.
 ///
 /// # Formula
 /// ```text
 /// c = Σ (x−x̄)(y−ȳ) / Σ (x−x̄)²,   se² = Σ r² / ((n−2)·Σ (x−x̄)²),   strength = (c/se)²
 /// ```
 pub fn regress(y: &[f64], x: &[f64]) -> (f64, f64, f64) {
-    let pairs = || y.iter().zip(x).filter(|(a, b)| a.is_finite() && b.is_finite());
-    let n = pairs().count();
-    if n < 3 {
+    let mut line = LineFit::default();
+    y.iter()
+        .zip(x)
+        .filter(|(a, b)| a.is_finite() && b.is_finite())
+        .for_each(|(&a, &b)| line.add(b, a));
+    let Some((c, se)) = line.slope() else {
         return (0.0, f64::INFINITY, 0.0);
-    }
-    let (sy, sx) = pairs().fold((0.0, 0.0), |(sy, sx), (a, b)| (sy + a, sx + b));
-    let (my, mx) = (sy / n as f64, sx / n as f64);
-    let (sxy, sxx) = pairs().fold((0.0, 0.0), |(sxy, sxx), (a, b)| {
-        (sxy + (b - mx) * (a - my), sxx + (b - mx) * (b - mx))
-    });
-    if sxx <= 0.0 {
-        return (0.0, f64::INFINITY, 0.0);
-    }
-    let c = sxy / sxx;
-    let rss: f64 = pairs()
-        .map(|(a, b)| {
-            let r = (a - my) - c * (b - mx);
-            r * r
-        })
-        .sum();
-    let se = (rss / ((n - 2) as f64 * sxx)).sqrt();
+    };
     let strength = if se > 0.0 { (c / se).powi(2) } else { f64::INFINITY };
     (c, se, strength)
 }

@@ -13,6 +13,7 @@
 //! residuals; bias instability and random walk make neighbouring blocks correlated, so the
 //! threshold is set well above the 2σ of a textbook test.
 
+use crate::model::timedomain::LineFit;
 use crate::signal::{Axis, ImuSample, TemperatureSample};
 
 /// Length of a block, ns of IMU stamp time (1 s).
@@ -21,46 +22,6 @@ pub const BLOCK_NS: i64 = 1_000_000_000;
 pub const MIN_BLOCKS: u64 = 10;
 /// |slope| / σ_slope needed to publish.
 pub const SIGNIFICANCE: f64 = 5.0;
-
-/// Running least-squares line y = a + b·x over the points added (Welford updates).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-struct LineFit {
-    n: u64,
-    mean_x: f64,
-    mean_y: f64,
-    sxx: f64,
-    sxy: f64,
-    syy: f64,
-}
-
-impl LineFit {
-    fn add(&mut self, x: f64, y: f64) {
-        self.n += 1;
-        let n = self.n as f64;
-        let dx = x - self.mean_x;
-        let dy = y - self.mean_y;
-        self.mean_x += dx / n;
-        self.mean_y += dy / n;
-        self.sxx += dx * (x - self.mean_x);
-        self.sxy += dx * (y - self.mean_y);
-        self.syy += dy * (y - self.mean_y);
-    }
-
-    /// (slope, its standard error), once there are enough points and x moved.
-    ///
-    /// # Formula
-    /// ```text
-    /// b = Sxy / Sxx,   σ_b² = (Syy − b·Sxy) / ((n − 2)·Sxx)
-    /// ```
-    fn slope(&self) -> Option<(f64, f64)> {
-        if self.n < MIN_BLOCKS || self.sxx <= 0.0 {
-            return None;
-        }
-        let b = self.sxy / self.sxx;
-        let residual = (self.syy - b * self.sxy).max(0.0) / (self.n - 2) as f64;
-        Some((b, (residual / self.sxx).sqrt()))
-    }
-}
 
 /// One block being filled: sums of the rates and of the temperatures received meanwhile.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -123,7 +84,11 @@ impl TemperatureRegression {
 
     /// The coefficient of `axis` (rate unit per kelvin) and its standard error, when significant.
     pub fn coefficient(&self, axis: Axis) -> Option<(f64, f64)> {
-        let (b, sigma) = self.lines[axis.index()].slope()?;
+        let line = &self.lines[axis.index()];
+        if line.len() < MIN_BLOCKS {
+            return None;
+        }
+        let (b, sigma) = line.slope()?;
         (b.abs() > SIGNIFICANCE * sigma).then_some((b, sigma))
     }
 }

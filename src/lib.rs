@@ -36,6 +36,7 @@
 #![deny(missing_docs)]
 
 pub mod allan;
+pub mod analysis;
 pub mod bag;
 pub mod davar;
 pub mod model;

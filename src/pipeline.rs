@@ -1,9 +1,10 @@
 //! The one path from IMU samples to DAVAR rows, shared by the offline CLI and the live node.
 //!
-//! `ImuSample` → stamp check ([`StampCheck`]: gaps become missing-sample markers, duplicates and
-//! stamps going backwards are dropped and counted) → per-axis NaN/∞ handling (that axis gets a
-//! missing marker, counted) → one [`DavarEngine`] and one [`ChangeDetector`] per axis → rows tagged
-//! with axis, time and stamp, and change events.
+//! `ImuSample` → [`Intake`] (τ0, stamp checks: gaps become missing-sample markers, duplicates and
+//! stamps going backwards are dropped and counted, NaN/∞ values counted; the same intake feeds the
+//! whole-run analysis of [`crate::analysis`]) → one [`DavarEngine`] and one [`ChangeDetector`] per
+//! axis (a non-finite value is a missing sample of its axis) → rows tagged with axis, time and
+//! stamp, and change events.
 //!
 //! Determinism: the pipeline has no clock and no thread of its own. Its output depends only on the
 //! sequence of samples pushed, so the node (which pushes samples from its subscription) and the
@@ -19,9 +20,7 @@ use crate::davar::{
     DetectorConfig, EngineConfig, FTarget, FixedWindow, ProportionalPolicy, SigmaRef, SignPolicy,
     WindowPolicy,
 };
-use crate::signal::{
-    nominal_period, Axis, ImuSample, Irregularities, PeriodEstimator, StampCheck, StampClass,
-};
+use crate::signal::{Axis, ImuSample, Intake, Irregularities, Placed};
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 
@@ -225,31 +224,25 @@ impl Stamps {
 }
 
 struct Running {
-    check: StampCheck,
     stamps: Stamps,
     axes: Vec<AxisState>,
     scratch: Vec<DavarRow>,
 }
 
 impl Running {
-    fn push(&mut self, s: &ImuSample, out: &mut Output) {
-        match self.check.check(s.stamp_ns) {
-            StampClass::Duplicate | StampClass::Backwards => return,
-            StampClass::Gap { missing } => {
-                self.stamps.fill_gap(missing, s.stamp_ns);
-                for k in 0..self.axes.len() {
-                    self.axes[k].engine.push_missing(missing, &mut self.scratch);
-                    self.drain(k, out);
-                }
+    fn push(&mut self, placed: Placed, out: &mut Output) {
+        let s = placed.sample;
+        if placed.missing_before > 0 {
+            let missing = placed.missing_before;
+            self.stamps.fill_gap(missing, s.stamp_ns);
+            for k in 0..self.axes.len() {
+                self.axes[k].engine.push_missing(missing, &mut self.scratch);
+                self.drain(k, out);
             }
-            StampClass::Next => {}
         }
         self.stamps.remember(s.stamp_ns);
         for k in 0..self.axes.len() {
             let value = s.value(self.axes[k].axis);
-            if !value.is_finite() {
-                self.check.count_non_finite();
-            }
             self.axes[k].engine.push(Some(value), &mut self.scratch);
             self.drain(k, out);
         }
@@ -281,8 +274,9 @@ pub struct Pipeline {
     config: DavarConfig,
     axes: Vec<Axis>,
     record: Option<[Option<f64>; 6]>,
-    period: PeriodEstimator,
-    held: Vec<ImuSample>,
+    intake: Intake,
+    /// Scratch: the samples one push placed.
+    placed: Vec<Placed>,
     running: Option<Running>,
 }
 
@@ -317,11 +311,11 @@ impl Pipeline {
             }
         }
         let pipeline = Pipeline {
+            intake: Intake::new(config.tau0, PERIOD_SETTLE).counting(axes),
             config,
             axes: axes.to_vec(),
             record,
-            period: PeriodEstimator::new(PERIOD_SETTLE),
-            held: Vec::new(),
+            placed: Vec::new(),
             running: None,
         };
         // Validate the engine configuration now, with a placeholder period when none is given.
@@ -354,15 +348,12 @@ impl Pipeline {
 
     /// The nominal period in use, once known.
     pub fn tau0(&self) -> Option<f64> {
-        self.running.as_ref().map(|r| r.stamps.tau0)
+        self.intake.tau0()
     }
 
     /// Irregularities counted so far (gaps, duplicates, backwards stamps, non-finite values).
     pub fn irregularities(&self) -> Irregularities {
-        self.running
-            .as_ref()
-            .map(|r| r.check.counts())
-            .unwrap_or_default()
+        self.intake.irregularities()
     }
 
     /// Squared differences left out so far because they straddled an invalid sample, per axis.
@@ -380,30 +371,18 @@ impl Pipeline {
 
     /// Pushes one IMU sample; rows and closed events are appended to `out`.
     pub fn push(&mut self, sample: &ImuSample, out: &mut Output) {
-        if let Some(r) = &mut self.running {
-            r.push(sample, out);
-            return;
-        }
-        let tau0 = self
-            .config
-            .tau0
-            .or_else(|| self.period.push(sample.stamp_ns));
-        self.held.push(*sample);
-        if let Some(tau0) = tau0 {
-            self.start(tau0, out);
-        }
+        let mut placed = std::mem::take(&mut self.placed);
+        self.intake.push(sample, &mut |p| placed.push(p));
+        self.place(&mut placed, out);
+        self.placed = placed;
     }
 
     /// Ends the input: flushes held samples (estimating τ0 from them if needed) and closes open
     /// events (marked `closed: false`).
     pub fn finish(&mut self, out: &mut Output) {
-        if self.running.is_none() {
-            let stamps: Vec<i64> = self.held.iter().map(|s| s.stamp_ns).collect();
-            match nominal_period(&stamps) {
-                Some(tau0) => self.start(tau0, out),
-                None => return,
-            }
-        }
+        let mut placed = Vec::new();
+        self.intake.finish(&mut |p| placed.push(p));
+        self.place(&mut placed, out);
         if let Some(r) = &mut self.running {
             for a in &mut r.axes {
                 if let Some(event) = a.detector.finish() {
@@ -416,7 +395,27 @@ impl Pipeline {
         }
     }
 
-    fn start(&mut self, tau0: f64, out: &mut Output) {
+    /// Runs placed samples through the engines, starting them at the first one.
+    ///
+    /// `placed` is left empty (a scratch buffer kept across pushes).
+    fn place(&mut self, placed: &mut Vec<Placed>, out: &mut Output) {
+        if placed.is_empty() {
+            return;
+        }
+        if self.running.is_none() {
+            let tau0 = self
+                .intake
+                .tau0()
+                .expect("samples are placed once τ0 is known");
+            self.start(tau0, placed[0].sample.stamp_ns);
+        }
+        let r = self.running.as_mut().expect("just started");
+        for p in placed.drain(..) {
+            r.push(p, out);
+        }
+    }
+
+    fn start(&mut self, tau0: f64, first_stamp: i64) {
         let axes: Vec<AxisState> = self
             .axes
             .iter()
@@ -428,10 +427,7 @@ impl Pipeline {
                 detector: ChangeDetector::new(self.config.events),
             })
             .collect();
-        let held = std::mem::take(&mut self.held);
-        let first_stamp = held.first().map(|s| s.stamp_ns).unwrap_or_default();
         self.running = Some(Running {
-            check: StampCheck::new(tau0),
             stamps: Stamps {
                 tau0,
                 first_stamp,
@@ -442,10 +438,6 @@ impl Pipeline {
             axes,
             scratch: Vec::new(),
         });
-        let r = self.running.as_mut().expect("just set");
-        for s in &held {
-            r.push(s, out);
-        }
     }
 }
 

@@ -390,12 +390,20 @@ fn sinusoid_samples() -> Vec<fdavar::signal::ImuSample> {
         .collect()
 }
 
-/// The node's engine and monitor in process (no DDS), model N,B,K, default DAVAR settings.
-fn in_process_monitor(diagnosis_period_s: f64) -> fdavar::ros::monitor::Monitor {
-    use fdavar::ros::engine::{model_kinds, PipelineEngine};
+/// The node's engine and monitor in process (no DDS), model N,B,K (and `gyro_x` on gyro_x if
+/// given), default DAVAR settings.
+fn in_process_monitor(
+    diagnosis_period_s: f64,
+    gyro_x: Option<&str>,
+) -> fdavar::ros::monitor::Monitor {
+    use fdavar::model::ModelSpec;
+    use fdavar::ros::engine::AnalysisEngine;
     use fdavar::ros::monitor::{Monitor, MonitorSettings};
     let config = fdavar::params::config_from_params(&Default::default()).unwrap();
-    let engine = PipelineEngine::new(config, model_kinds("N,B,K").unwrap()).unwrap();
+    let mut overrides: [Option<ModelSpec>; 6] = Default::default();
+    overrides[0] = gyro_x.map(|m| ModelSpec::parse(m).unwrap());
+    let engine =
+        AnalysisEngine::new(config, ModelSpec::parse("N,B,K").unwrap(), overrides).unwrap();
     let settings = MonitorSettings {
         diagnosis_period_s,
         stale_timeout_s: 10.0,
@@ -408,7 +416,7 @@ fn in_process_monitor(diagnosis_period_s: f64) -> fdavar::ros::monitor::Monitor 
 fn the_live_diagnosis_names_a_hidden_sinusoid_and_nothing_on_a_clean_axis() {
     // In-process (no DDS): the node's engine and monitor, fed the recording, reporting at 10 Hz of
     // sample time with a diagnosis every second.
-    let mut monitor = in_process_monitor(1.0);
+    let mut monitor = in_process_monitor(1.0, None);
     let mut last = None;
     for (k, s) in sinusoid_samples().into_iter().enumerate() {
         let t = s.stamp_ns;
@@ -535,52 +543,52 @@ fn a_played_recording_with_a_hidden_sinusoid_gets_sinusoid_suggested_over_dds() 
 #[test]
 fn a_temperature_driven_axis_gets_a_live_temperature_coefficient() {
     // In-process: the node's engine and monitor with the temperature topic's readings (2 Hz),
-    // gyro_x = 2e-4 rad/s/K·(T − 30 °C) + white noise, T from 20 to 40 °C over 100 s.
+    // gyro_x = 2e-4 rad/s/K·(T − 30 °C) + white noise, T a warm-up from 20 °C towards 40 °C with
+    // a 30 s time constant over 100 s. With `model.gyro_x = N,B,K,temperature` the whole-run fit
+    // (the path of `fdavar fit`) gives the coefficient with its 1σ; the other axes keep N,B,K.
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
-    let mut monitor = in_process_monitor(0.0);
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-    let noise = Normal::new(0.0, 1e-3).unwrap();
-    let n = 20_000_i64;
-    for k in 0..n {
-        let celsius = 20.0 + 20.0 * k as f64 / n as f64;
-        let mut v = [0.0; 6];
-        for x in &mut v {
-            *x = noise.sample(&mut rng);
+    let run = |gyro_x: Option<&str>| {
+        let mut monitor = in_process_monitor(1.0, gyro_x);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let noise = Normal::new(0.0, 1e-3).unwrap();
+        let n = 20_000_i64;
+        let mut last = None;
+        for k in 0..n {
+            let celsius = 20.0 + 20.0 * (1.0 - (-(k as f64 * 0.005) / 30.0).exp());
+            let mut v = [0.0; 6];
+            for x in &mut v {
+                *x = noise.sample(&mut rng);
+            }
+            v[0] += 2e-4 * (celsius - 30.0);
+            let s = sample_at(k, v);
+            let t = s.stamp_ns;
+            monitor.push(s, "imu_link", t);
+            if k % 100 == 0 {
+                monitor.push_temperature(&fdavar::signal::TemperatureSample {
+                    stamp_ns: t,
+                    celsius,
+                });
+            }
+            if k % 20 == 19 {
+                last = Some(monitor.report(t).1);
+            }
         }
-        v[0] += 2e-4 * (celsius - 30.0);
-        let s = sample_at(k, v);
-        let t = s.stamp_ns;
-        monitor.push(s, "imu_link", t);
-        if k % 100 == 0 {
-            monitor.push_temperature(&fdavar::signal::TemperatureSample {
-                stamp_ns: t,
-                celsius,
-            });
-        }
-    }
-    let (_, states, _) = monitor.report(sample_at(n, [0.0; 6]).stamp_ns);
-    let coefficient = |axis: &str| {
-        let s = states.iter().find(|s| s.axis == axis).unwrap();
-        s.coefficients
-            .iter()
-            .find(|c| c.effect == "temperature")
+        last.unwrap()
+    };
+    let temperature = |c: &[fdavar::msgs::fdavar_msgs::Coefficient]| {
+        c.iter()
+            .find(|c| c.effect == "temperature" && c.name == "coefficient_per_k")
             .cloned()
     };
-    let gx = coefficient("gyro_x").expect("no temperature coefficient on gyro_x");
-    eprintln!("gyro_x: {gx:?}");
-    assert_eq!(
-        (gx.name.as_str(), gx.unit.as_str()),
-        ("coefficient_per_k", "rad/s/K")
-    );
-    assert!((gx.value / 2e-4 - 1.0).abs() < 0.1, "{gx:?}");
-    for axis in ["gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"] {
-        assert!(
-            coefficient(axis).is_none(),
-            "{axis}: {:?}",
-            coefficient(axis)
-        );
-    }
+    let states = run(Some("N,B,K,temperature"));
+    let c = temperature(&states[0].coefficients).expect("no fitted temperature coefficient");
+    eprintln!("fitted on gyro_x: {c:?}");
+    assert_eq!(c.unit, "rad/s/K");
+    assert!((c.value / 2e-4 - 1.0).abs() < 0.1, "{c:?}");
+    assert!(c.sigma > 0.0 && c.sigma < 0.05 * c.value, "{c:?}");
+    assert!(states[0].fit_error < 2.0, "{}", states[0].fit_error);
+    assert!(temperature(&states[1].coefficients).is_none());
 }
 
 #[test]
@@ -596,7 +604,9 @@ fn the_temperature_topic_from_rclpy_gives_a_live_coefficient_over_dds() {
             "-p",
             "stale_timeout_s:=30.0",
             "-p",
-            "diagnosis_period_s:=0.0",
+            "diagnosis_period_s:=1.0",
+            "-p",
+            "model.gyro_x:=N,B,K,temperature",
         ],
     );
     let v = peer(&py, 71, "temperature", Duration::from_secs(90), None);
@@ -605,8 +615,8 @@ fn the_temperature_topic_from_rclpy_gives_a_live_coefficient_over_dds() {
         .as_str()
         .and_then(|s| s.parse().ok())
         .unwrap_or_else(|| panic!("no temperature coefficient on gyro_x: {v}"));
-    // 15 blocks of 200 samples: σ_slope ≈ (1e-3/√200)/(√15·5.8 K) ≈ 3e-7, so 20 % is > 100 σ
-    // and leaves room for the peer's pacing (the ramp follows wall time).
+    // 15 s at 200 Hz, 20 K: σ_slope ≈ 1e-3/√3000/5.8 K ≈ 3e-6, so 20 % is > 10 σ and leaves room
+    // for the peer's pacing (the ramp follows wall time).
     assert!((gx / 2e-4 - 1.0).abs() < 0.2, "{v}");
     assert!(v["coefficient"]["gyro_y"].is_null(), "{v}");
 }

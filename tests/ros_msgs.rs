@@ -4,7 +4,7 @@
 
 use fdavar::msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
 use fdavar::msgs::fdavar_msgs::{
-    AxisState, Coefficient, DavarPoint, Fields, Suggestion, TauInterval,
+    AxisState, Coefficient, DavarPoint, Fields, Suggestion, TauInterval, TimeSpan,
 };
 use fdavar::msgs::rosgraph_msgs::Clock;
 use fdavar::msgs::sensor_msgs::{Imu, Temperature};
@@ -95,6 +95,7 @@ fn mirrors_match_the_msg_files_field_by_field() {
     check_against_msg_file::<DavarPoint>();
     check_against_msg_file::<Coefficient>();
     check_against_msg_file::<TauInterval>();
+    check_against_msg_file::<TimeSpan>();
     check_against_msg_file::<Suggestion>();
 }
 
@@ -107,6 +108,7 @@ fn every_msg_file_has_a_mirror_and_is_listed_in_cmake() {
         "DavarPoint",
         "Suggestion",
         "TauInterval",
+        "TimeSpan",
     ];
     let cmake =
         std::fs::read_to_string(format!("{}/msg/CMakeLists.txt", env!("CARGO_MANIFEST_DIR")))
@@ -151,6 +153,7 @@ fn axis_state_survives_a_cdr_round_trip() {
         effect: "white".into(),
         name: "n".into(),
         value: 1.5e-4,
+        sigma: 2.0e-6,
         unit: "rad/s/sqrt(Hz)".into(),
     };
     let state = AxisState {
@@ -170,11 +173,16 @@ fn axis_state_survives_a_cdr_round_trip() {
                 edf: 40.0 / f64::from(m),
             })
             .collect(),
+        model: vec!["white".into(), "sinusoid".into()],
         coefficients: vec![coefficient.clone()],
         fit_error: 1.1,
         failing_tau: vec![TauInterval {
             low_s: 0.3,
             high_s: 1.2,
+        }],
+        failing_spans: vec![TimeSpan {
+            start_s: 600.0,
+            end_s: 900.0,
         }],
         suggestions: vec![Suggestion {
             effect: "sinusoid".into(),
@@ -182,6 +190,8 @@ fn axis_state_survives_a_cdr_round_trip() {
             fit_error_after: 0.9,
             explanation: "a periodic disturbance".into(),
         }],
+        diagnosed_messages: 3590,
+        diagnosed_until_s: 107.7,
         samples: 3600,
         drops: 2,
         gaps: 1,

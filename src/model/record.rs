@@ -1,17 +1,28 @@
 //! A recording laid out for the fitter: six rate series on a regular grid, temperature aligned.
 //!
-//! Bag readers and the node hand over [`ImuSample`]s in stamp order, with gaps and duplicates.
-//! The fitter wants one rate value per nominal period: a gap becomes NaN samples (so that no Allan
-//! term straddles it, DESIGN §1), a duplicate or backwards stamp is dropped and counted, and the
-//! temperature is interpolated linearly at each IMU sample time. No I/O here.
+//! Samples arrive placed by the [`Intake`] (the one place that decides τ0, drops duplicate and
+//! backwards stamps and finds gaps; the DAVAR pipeline uses the same): a gap becomes NaN samples
+//! (so that no Allan term straddles it, DESIGN §1), a NaN value stays NaN in its axis, and the
+//! temperature is interpolated linearly at each sample time. The live node and the CLI grow the
+//! same [`RecordBuilder`] sample by sample, so the fitter sees the same numbers in both.
+//!
+//! Memory is bounded: when an axis holds [`RecordBuilder::max_samples`] values, neighbouring pairs
+//! are averaged and τ0 doubles (later samples are averaged in blocks of the new size). Why block
+//! means: the Allan variance at τ = m·τ0 of block means of 2 samples is the overlapping estimator at
+//! stride 2 — the same expectation for every τ ≥ 2τ0, a little less EDF — so the long-τ end the
+//! whole-run fit needs is kept, and only the shortest τ is given up, once the record is long. The
+//! default keeps 2²¹ samples per axis (5.8 h at 100 Hz, 1.5 h at 400 Hz) at full rate. No I/O here.
 
 use crate::model::fit::AxisInput;
-use crate::signal::{nominal_period, Axis, ImuSample, Irregularities, StampCheck, StampClass, TemperatureSample};
+use crate::signal::{Axis, ImuSample, Intake, Irregularities, Placed, TemperatureSample};
+
+/// Stamp intervals used to learn τ0 when it is not given (as the DAVAR pipeline does).
+pub use crate::pipeline::PERIOD_SETTLE;
 
 /// Six axes of rate samples on a regular grid, with what was irregular.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Recording {
-    /// Nominal period τ0, seconds.
+    /// Nominal period τ0 of the grid, seconds (doubled at each halving of the record).
     pub tau0: f64,
     /// Rate samples per axis ([`Axis::ALL`] order); NaN where missing or bad.
     pub axes: [Vec<f64>; 6],
@@ -39,53 +50,30 @@ pub enum RecordError {
 }
 
 impl Recording {
-    /// Lays out samples (in stamp order) and temperature readings on the grid of the nominal period.
+    /// Lays out samples (in the order received) and temperature readings, as the live node does.
     ///
     /// # Errors
     /// [`RecordError::NoPeriod`] with fewer than two distinct stamps; [`RecordError::HugeGap`]
     /// when a gap would more than double the record.
-    pub fn from_samples(imu: &[ImuSample], temps: &[TemperatureSample]) -> Result<Self, RecordError> {
-        let stamps: Vec<i64> = imu.iter().map(|s| s.stamp_ns).collect();
-        let tau0 = nominal_period(&stamps).ok_or(RecordError::NoPeriod(imu.len()))?;
-        let mut check = StampCheck::new(tau0);
-        let mut axes: [Vec<f64>; 6] = Default::default();
-        let mut times: Vec<i64> = Vec::with_capacity(imu.len());
-        let t0 = stamps.first().copied().unwrap_or(0);
+    pub fn from_samples(
+        imu: &[ImuSample],
+        temps: &[TemperatureSample],
+    ) -> Result<Self, RecordError> {
+        let mut builder = RecordBuilder::new(None, RecordBuilder::DEFAULT_MAX_SAMPLES);
         for s in imu {
-            match check.check(s.stamp_ns) {
-                StampClass::Duplicate | StampClass::Backwards => continue,
-                StampClass::Gap { missing } => {
-                    if missing as usize > imu.len() {
-                        return Err(RecordError::HugeGap {
-                            missing,
-                            at_s: (s.stamp_ns - t0) as f64 * 1e-9,
-                        });
-                    }
-                    for a in axes.iter_mut() {
-                        a.extend(std::iter::repeat_n(f64::NAN, missing as usize));
-                    }
-                    let last = times.last().copied().unwrap_or(t0);
-                    for k in 1..=missing as i64 {
-                        times.push(last + (k as f64 * tau0 * 1e9) as i64);
-                    }
-                }
-                StampClass::Next => {}
-            }
-            for (a, v) in axes.iter_mut().zip(s.values()) {
-                if !v.is_finite() {
-                    check.count_non_finite();
-                }
-                a.push(v);
-            }
-            times.push(s.stamp_ns);
+            builder.push(s);
         }
-        let temperature_c = (!temps.is_empty()).then(|| interpolate(temps, &times));
-        Ok(Recording {
-            tau0,
-            axes,
-            temperature_c,
-            irregularities: check.counts(),
-        })
+        for t in temps {
+            builder.push_temperature(t);
+        }
+        builder.finish();
+        if let Some(e) = builder.error() {
+            return Err(e.clone());
+        }
+        builder
+            .recording()
+            .cloned()
+            .ok_or(RecordError::NoPeriod(imu.len()))
     }
 
     /// The fitter's view of one axis (accel axes as g-sensitivity evidence, no DAVAR events).
@@ -99,11 +87,222 @@ impl Recording {
             events: &[],
         }
     }
+
+    fn len(&self) -> usize {
+        self.axes[0].len()
+    }
+}
+
+/// Grows a [`Recording`] sample by sample, with bounded memory (see the module doc).
+#[derive(Debug, Clone)]
+pub struct RecordBuilder {
+    intake: Intake,
+    max_samples: usize,
+    /// The record so far (`None` until τ0 is known).
+    record: Option<Recording>,
+    /// Input samples averaged into one record sample (a power of two).
+    block: usize,
+    /// The block being averaged: sums and count of input samples so far (NaN poisons its axis).
+    pending: ([f64; 6], usize),
+    /// Temperature readings kept (thinned by half whenever they outnumber a quarter of the cap).
+    temps: Vec<TemperatureSample>,
+    /// True when `record.temperature_c` is out of date.
+    temps_stale: bool,
+    /// Stamp of the last sample placed.
+    last_stamp_ns: Option<i64>,
+    error: Option<RecordError>,
+    /// Scratch: the samples one push placed.
+    scratch: Vec<Placed>,
+}
+
+impl RecordBuilder {
+    /// Samples per axis kept at full rate before the record is halved (2²¹: 16 MB per axis).
+    pub const DEFAULT_MAX_SAMPLES: usize = 1 << 21;
+
+    /// A builder with period `tau0` (seconds; `None`: learned from the first stamps) that keeps
+    /// at most `max_samples` (at least 1024) values per axis.
+    pub fn new(tau0: Option<f64>, max_samples: usize) -> RecordBuilder {
+        RecordBuilder {
+            intake: Intake::new(tau0, PERIOD_SETTLE),
+            max_samples: max_samples.max(1024),
+            record: None,
+            block: 1,
+            pending: ([0.0; 6], 0),
+            temps: Vec::new(),
+            temps_stale: false,
+            last_stamp_ns: None,
+            error: None,
+            scratch: Vec::new(),
+        }
+    }
+
+    /// Values kept per axis before halving.
+    pub fn max_samples(&self) -> usize {
+        self.max_samples
+    }
+
+    /// Feeds one IMU sample (in the order received).
+    pub fn push(&mut self, sample: &ImuSample) {
+        let mut placed = std::mem::take(&mut self.scratch);
+        self.intake.push(sample, &mut |p| placed.push(p));
+        for p in placed.drain(..) {
+            self.place(p);
+        }
+        self.scratch = placed;
+    }
+
+    /// Feeds one temperature reading.
+    pub fn push_temperature(&mut self, t: &TemperatureSample) {
+        if !t.celsius.is_finite() {
+            return;
+        }
+        self.temps.push(*t);
+        if self.temps.len() > self.max_samples / 4 {
+            // Temperature is slow: every other reading carries the same curve.
+            let mut k = 0;
+            self.temps.retain(|_| {
+                k += 1;
+                k % 2 == 1
+            });
+        }
+        self.temps_stale = true;
+    }
+
+    /// Ends the input: places a short input whose period was never settled.
+    pub fn finish(&mut self) {
+        let mut placed = Vec::new();
+        self.intake.finish(&mut |p| placed.push(p));
+        for p in placed {
+            self.place(p);
+        }
+    }
+
+    /// The error that stopped the record growing, if any (a gap too long to fill).
+    pub fn error(&self) -> Option<&RecordError> {
+        self.error.as_ref()
+    }
+
+    /// Irregularities of the input so far.
+    pub fn irregularities(&self) -> Irregularities {
+        self.intake.irregularities()
+    }
+
+    /// Stamp of the last sample placed, ns.
+    pub fn last_stamp_ns(&self) -> Option<i64> {
+        self.last_stamp_ns
+    }
+
+    /// Stamp of the first sample placed, ns.
+    pub fn first_stamp_ns(&self) -> Option<i64> {
+        self.intake.first_stamp_ns()
+    }
+
+    /// The record so far, its temperature interpolated at every sample (`None` before τ0 is
+    /// known). Samples of an unfinished block are not in it yet.
+    pub fn recording(&mut self) -> Option<&Recording> {
+        let irregularities = self.intake.irregularities();
+        let (first, block) = (self.intake.first_stamp_ns()?, self.block);
+        let base_tau0 = self.intake.tau0()?;
+        let last = self.last_stamp_ns;
+        let rec = self.record.as_mut()?;
+        rec.irregularities = irregularities;
+        if self.temps_stale
+            || rec
+                .temperature_c
+                .as_ref()
+                .is_some_and(|t| t.len() != rec.len())
+        {
+            // Sample k of the record is the mean of input samples k·block … k·block + block − 1:
+            // its time is their centre. Readings after the last IMU sample are not used yet (the
+            // same readings live and offline, whatever the order the two topics arrive in).
+            let centre = |k: usize| (k * block) as f64 + (block - 1) as f64 / 2.0;
+            let times: Vec<i64> = (0..rec.len())
+                .map(|k| first + (centre(k) * base_tau0 * 1e9).round() as i64)
+                .collect();
+            let usable: Vec<TemperatureSample> = self
+                .temps
+                .iter()
+                .filter(|t| last.is_some_and(|l| t.stamp_ns <= l))
+                .copied()
+                .collect();
+            rec.temperature_c = (!usable.is_empty()).then(|| interpolate(&usable, &times));
+            self.temps_stale = false;
+        }
+        Some(rec)
+    }
+
+    fn place(&mut self, p: Placed) {
+        if self.error.is_some() {
+            return;
+        }
+        let Some(tau0) = self.intake.tau0() else {
+            return;
+        };
+        let rec = self.record.get_or_insert_with(|| Recording {
+            tau0,
+            axes: Default::default(),
+            temperature_c: None,
+            irregularities: Irregularities::default(),
+        });
+        let placed_so_far = rec.len() * self.block + self.pending.1;
+        if p.missing_before as usize > placed_so_far.max(self.max_samples) {
+            let first = self.intake.first_stamp_ns().unwrap_or(p.sample.stamp_ns);
+            self.error = Some(RecordError::HugeGap {
+                missing: p.missing_before,
+                at_s: (p.sample.stamp_ns - first) as f64 * 1e-9,
+            });
+            return;
+        }
+        for _ in 0..p.missing_before {
+            self.add([f64::NAN; 6]);
+        }
+        self.add(p.sample.values());
+        self.last_stamp_ns = Some(p.sample.stamp_ns);
+        self.temps_stale = true;
+    }
+
+    /// Adds one input sample to the pending block; a full block becomes one record sample.
+    fn add(&mut self, values: [f64; 6]) {
+        let (sums, count) = &mut self.pending;
+        for (s, v) in sums.iter_mut().zip(values) {
+            *s += v;
+        }
+        *count += 1;
+        if *count < self.block {
+            return;
+        }
+        let mean = sums.map(|s| s / self.block as f64);
+        self.pending = ([0.0; 6], 0);
+        let Some(rec) = self.record.as_mut() else {
+            return;
+        };
+        for (axis, v) in rec.axes.iter_mut().zip(mean) {
+            axis.push(v);
+        }
+        if rec.len() >= self.max_samples {
+            for axis in rec.axes.iter_mut() {
+                halve(axis);
+            }
+            rec.tau0 *= 2.0;
+            self.block *= 2;
+        }
+    }
+}
+
+/// Replaces `x` by the means of its neighbouring pairs (a NaN poisons its pair; an odd last value
+/// is dropped), in place: the buffer's capacity is kept for the samples to come.
+fn halve(x: &mut Vec<f64>) {
+    let n = x.len() / 2;
+    for k in 0..n {
+        x[k] = 0.5 * (x[2 * k] + x[2 * k + 1]);
+    }
+    x.truncate(n);
 }
 
 /// Linear interpolation of temperature readings at `times` (held constant beyond the ends).
 fn interpolate(temps: &[TemperatureSample], times: &[i64]) -> Vec<f64> {
-    let mut sorted: Vec<&TemperatureSample> = temps.iter().filter(|t| t.celsius.is_finite()).collect();
+    let mut sorted: Vec<&TemperatureSample> =
+        temps.iter().filter(|t| t.celsius.is_finite()).collect();
     sorted.sort_by_key(|t| t.stamp_ns);
     let mut k = 0;
     times
@@ -132,7 +331,11 @@ mod tests {
     use super::*;
 
     fn sample(stamp_ns: i64, v: f64) -> ImuSample {
-        ImuSample { stamp_ns, gyro: [v; 3], accel: [v; 3] }
+        ImuSample {
+            stamp_ns,
+            gyro: [v; 3],
+            accel: [v; 3],
+        }
     }
 
     #[test]
@@ -143,8 +346,14 @@ mod tests {
             .map(|&k| sample(k * ms, k as f64))
             .collect();
         let temps = [
-            TemperatureSample { stamp_ns: 0, celsius: 20.0 },
-            TemperatureSample { stamp_ns: 6 * ms, celsius: 26.0 },
+            TemperatureSample {
+                stamp_ns: 0,
+                celsius: 20.0,
+            },
+            TemperatureSample {
+                stamp_ns: 6 * ms,
+                celsius: 26.0,
+            },
         ];
         let r = Recording::from_samples(&imu, &temps).unwrap();
         assert!((r.tau0 - 0.01).abs() < 1e-12);

@@ -32,6 +32,42 @@ pub enum SpecError {
     /// The spec is empty.
     #[error("empty model spec: give effect names or aliases, e.g. N,B,K")]
     Empty,
+    /// `AXIS=SPEC` with a name that is not an axis.
+    #[error("unknown axis '{0}' in '{0}=…' (axes: gyro_x gyro_y gyro_z accel_x accel_y accel_z)")]
+    UnknownAxis(String),
+}
+
+/// The model of each axis ([`crate::signal::Axis::ALL`] order) from `--model` values: `SPEC` sets
+/// every axis, `AXIS=SPEC` one axis (later values win); axes no value names get `default`.
+///
+/// ```
+/// use fdavar::model::spec::axis_models;
+/// let m = axis_models(&["N,B".into(), "gyro_x=N,B,K,sinusoid".into()], "N,B,K").unwrap();
+/// assert_eq!(m[0].ids(), ["white", "bias_instability", "random_walk", "sinusoid"]);
+/// assert_eq!(m[1].ids(), ["white", "bias_instability"]);
+/// ```
+///
+/// # Errors
+/// [`SpecError`] for an unknown effect or axis, or an empty spec.
+pub fn axis_models(values: &[String], default: &str) -> Result<[ModelSpec; 6], SpecError> {
+    let default = ModelSpec::parse(default)?;
+    let mut models: [ModelSpec; 6] = std::array::from_fn(|_| default.clone());
+    for value in values {
+        match value.split_once('=') {
+            Some((axis, spec)) => {
+                let axis: crate::signal::Axis = axis
+                    .trim()
+                    .parse()
+                    .map_err(|_| SpecError::UnknownAxis(axis.trim().to_string()))?;
+                models[axis.index()] = ModelSpec::parse(spec)?;
+            }
+            None => {
+                let spec = ModelSpec::parse(value)?;
+                models.iter_mut().for_each(|m| *m = spec.clone());
+            }
+        }
+    }
+    Ok(models)
 }
 
 impl ModelSpec {
@@ -149,7 +185,10 @@ mod tests {
     #[test]
     fn parses_ids_and_aliases_in_order_without_duplicates() {
         let s = ModelSpec::parse_in(" N, B ,K,sinusoid,white", KINDS).unwrap();
-        assert_eq!(s.ids(), ["white", "bias_instability", "random_walk", "sinusoid"]);
+        assert_eq!(
+            s.ids(),
+            ["white", "bias_instability", "random_walk", "sinusoid"]
+        );
         assert_eq!(s.to_string(), "white,bias_instability,random_walk,sinusoid");
         assert_eq!(ModelSpec::parse_in(&s.to_string(), KINDS).unwrap(), s);
     }

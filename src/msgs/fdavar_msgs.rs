@@ -40,14 +40,22 @@ pub struct AxisState {
     pub sample_period_s: f64,
     /// The DAVAR row σ²(t, τ).
     pub row: Vec<DavarPoint>,
-    /// Fitted coefficients of the model in force.
+    /// The model in force on this axis (effect ids).
+    pub model: Vec<String>,
+    /// Its coefficients fitted to the whole run, with 1σ.
     pub coefficients: Vec<Coefficient>,
-    /// RMS normalised residual over the τ grid (DESIGN §5).
+    /// RMS normalised residual over the τ grid of the whole run and its spans (DESIGN §5).
     pub fit_error: f64,
     /// Maximal τ intervals where |z| > 3.
     pub failing_tau: Vec<TauInterval>,
+    /// Maximal time spans where the model fails, seconds from the first sample.
+    pub failing_spans: Vec<TimeSpan>,
     /// Missing effects, best first.
     pub suggestions: Vec<Suggestion>,
+    /// IMU messages received when the diagnosis ran (`fdavar diagnose --first` reproduces it).
+    pub diagnosed_messages: u64,
+    /// Seconds of data the diagnosis covered (first to last sample).
+    pub diagnosed_until_s: f64,
     /// Samples analysed since start.
     pub samples: u64,
     /// Samples dropped because the analysis queue was full.
@@ -65,6 +73,7 @@ pub static AXIS_STATE: MsgDef = MsgDef {
         &DAVAR_POINT,
         &COEFFICIENT,
         &TAU_INTERVAL,
+        &TIME_SPAN,
         &SUGGESTION,
     ],
     type_hash: "",
@@ -84,10 +93,14 @@ impl Fields for AxisState {
         ("float64", "f_reference"),
         ("float64", "sample_period_s"),
         ("DavarPoint[]", "row"),
+        ("string[]", "model"),
         ("Coefficient[]", "coefficients"),
         ("float64", "fit_error"),
         ("TauInterval[]", "failing_tau"),
+        ("TimeSpan[]", "failing_spans"),
         ("Suggestion[]", "suggestions"),
+        ("uint64", "diagnosed_messages"),
+        ("float64", "diagnosed_until_s"),
         ("uint64", "samples"),
         ("uint64", "drops"),
         ("uint64", "gaps"),
@@ -140,6 +153,8 @@ pub struct Coefficient {
     pub name: String,
     /// Value in `unit`.
     pub value: f64,
+    /// 1σ uncertainty in `unit`; NaN when the fit gives none.
+    pub sigma: f64,
     /// SI unit.
     pub unit: String,
 }
@@ -161,6 +176,7 @@ impl Fields for Coefficient {
         ("string", "effect"),
         ("string", "name"),
         ("float64", "value"),
+        ("float64", "sigma"),
         ("string", "unit"),
     ];
 }
@@ -189,6 +205,32 @@ impl RosMessage for TauInterval {
 impl Fields for TauInterval {
     const FIELDS: &'static [(&'static str, &'static str)] =
         &[("float64", "low_s"), ("float64", "high_s")];
+}
+
+/// `fdavar_msgs/msg/TimeSpan`: a closed interval of time, seconds from the first sample.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct TimeSpan {
+    /// Start, seconds.
+    pub start_s: f64,
+    /// End, seconds.
+    pub end_s: f64,
+}
+
+/// The `.msg` definition of [`TimeSpan`]: the file `msg/msg/TimeSpan.msg`.
+pub static TIME_SPAN: MsgDef = MsgDef {
+    name: "fdavar_msgs/msg/TimeSpan",
+    text: include_str!("../../msg/msg/TimeSpan.msg"),
+    deps: &[],
+    type_hash: "",
+};
+
+impl RosMessage for TimeSpan {
+    const DEF: &'static MsgDef = &TIME_SPAN;
+}
+
+impl Fields for TimeSpan {
+    const FIELDS: &'static [(&'static str, &'static str)] =
+        &[("float64", "start_s"), ("float64", "end_s")];
 }
 
 /// `fdavar_msgs/msg/Suggestion`: an effect the model misses.

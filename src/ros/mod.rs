@@ -6,7 +6,8 @@
 //! - [`args`]: `--ros-args` (`-r`, `__ns`, `__node`, `-p`, `--params-file`, `--log-level`);
 //! - [`names`]: relative / private / absolute names and remaps, always absolute for ros2-client;
 //! - [`params`]: the node's parameter table, validators, parameter files;
-//! - [`engine`]: the offline F-DAVAR pipeline behind the node's engine trait;
+//! - [`engine`]: the library's analysis path ([`crate::analysis`]) behind the node's engine trait,
+//!   its answers as messages;
 //! - [`monitor`]: input checks, counters, levels and the messages (no DDS, tested alone);
 //! - [`node`]: context (ROS_DOMAIN_ID), subscriptions, the bounded queue, the analysis thread,
 //!   publishers of `/diagnostics` and `~/<axis>/state`, `/clock` as `rosgraph_msgs/msg/Clock`;
@@ -19,32 +20,37 @@ pub mod names;
 pub mod node;
 pub mod params;
 pub mod play;
-pub mod temperature;
 
 pub use node::{run, NodeConfig, NodeError};
 
-/// The F-DAVAR engine the node drives for `config`: the offline pipeline, live.
+/// The engine the node drives for `config`: the library's analysis path, live.
 ///
 /// # Errors
-/// [`NodeError::Param`] when the DAVAR settings cannot run live.
+/// [`NodeError::Param`] when the model or the DAVAR settings cannot run live.
 pub fn default_engine(
     config: &NodeConfig,
 ) -> Result<Option<Box<dyn monitor::RowEngine>>, NodeError> {
-    let model = match config.params.get("model") {
-        Some(ros2_client::ParameterValue::String(spec)) => engine::model_kinds(spec),
-        _ => Err("model is not a string".to_string()),
-    }
-    .map_err(|reason| {
+    let invalid = |name: &str, reason: String| {
         NodeError::Param(params::ParamError::Invalid {
-            name: "model".to_string(),
+            name: name.to_string(),
             reason,
         })
-    })?;
-    let engine = engine::PipelineEngine::new(config.davar_config.clone(), model).map_err(|e| {
-        NodeError::Param(params::ParamError::Invalid {
-            name: "(DAVAR settings)".to_string(),
-            reason: e.to_string(),
-        })
-    })?;
+    };
+    let text = |name: &str| match config.params.get(name) {
+        Some(ros2_client::ParameterValue::String(spec)) => Ok(spec.clone()),
+        _ => Err(invalid(name, "not a string".to_string())),
+    };
+    let global = engine::model_spec(&text("model")?).map_err(|e| invalid("model", e))?;
+    let mut overrides: [Option<crate::model::ModelSpec>; 6] = Default::default();
+    for axis in crate::signal::Axis::ALL {
+        let name = params::axis_model_param(axis);
+        let spec = text(&name)?;
+        if !spec.trim().is_empty() {
+            overrides[axis.index()] =
+                Some(engine::model_spec(&spec).map_err(|e| invalid(&name, e))?);
+        }
+    }
+    let engine = engine::AnalysisEngine::new(config.davar_config.clone(), global, overrides)
+        .map_err(|e| invalid("(DAVAR settings)", e.to_string()))?;
     Ok(Some(Box::new(engine)))
 }

@@ -10,18 +10,18 @@
 
 use crate::msgs::builtin_interfaces::Time;
 use crate::msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue, Level};
-use crate::msgs::fdavar_msgs::{AxisState, Suggestion};
+use crate::msgs::fdavar_msgs::{AxisState, Coefficient, Suggestion, TauInterval, TimeSpan};
 use crate::msgs::std_msgs::Header;
 use crate::signal::{Axis, ImuSample, PeriodEstimator, StampCheck, StampClass, TemperatureSample};
 
-/// The F-DAVAR engine as the node drives it: samples in, per-axis rows out.
+/// The analysis as the node drives it: samples in, per-axis rows and whole-run answers out.
 ///
-/// Why a trait: the node owns the queue, the counters and the publishing; the engine (the same
-/// streaming pipeline `fdavar davar` runs offline) owns the maths. Rows carry their analysis time,
-/// which lags the newest sample by half a window.
+/// Why a trait: the node owns the queue, the counters and the publishing; the engine (the library's
+/// [`crate::analysis::Analysis`], the path `fdavar fit/diagnose` run offline) owns the maths. Rows
+/// carry their analysis time, which lags the newest sample by half a window.
 pub trait RowEngine: Send {
-    /// Feeds one checked sample (finite values, stamps strictly increasing); returns the rows that
-    /// became complete, as (axis, state with the analysis fields filled).
+    /// Feeds one checked sample (stamps strictly increasing); returns the rows that became
+    /// complete, as (axis, state with the row fields filled).
     fn push(&mut self, sample: &ImuSample) -> Vec<(Axis, AxisState)>;
     /// Feeds one reading of the temperature topic (only when the node subscribes it).
     fn push_temperature(&mut self, _t: &TemperatureSample) {}
@@ -31,16 +31,49 @@ pub trait RowEngine: Send {
     /// A reason when the engine cannot take the value (the node then keeps the old one).
     fn reconfigure(&mut self, change: Change) -> Result<(), String>;
 
-    /// Fills the model fields of a row about to be published (coefficients, fit_error,
-    /// failing_tau). Called at the publishing rate on the latest row of each axis, not per row:
-    /// a fit costs far more than a row.
-    fn fit(&self, _state: &mut AxisState) {}
+    /// The model of `axis` fitted to the whole run so far, where it fails and what it lacks: the
+    /// answer of `fdavar diagnose`. Far costlier than a row (one refit per candidate effect): the
+    /// monitor asks every `diagnosis_period_s`, one axis per publication.
+    ///
+    /// # Errors
+    /// Why there is no answer yet (too few samples, a degenerate record).
+    fn diagnose(&mut self, _axis: Axis) -> Result<WholeRun, String> {
+        Err("this engine has no whole-run analysis".to_string())
+    }
+}
 
-    /// The effects the model in force lacks on `axis` over the whole run so far, best first.
-    /// Far costlier than [`RowEngine::fit`] (one refit per candidate effect): the monitor calls
-    /// it every `diagnosis_period_s`, one axis per publication.
-    fn diagnose(&self, _axis: Axis) -> Vec<Suggestion> {
-        Vec::new()
+/// The whole-run fields of `~/<axis>/state` (see [`RowEngine::diagnose`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct WholeRun {
+    /// The model's effect ids.
+    pub model: Vec<String>,
+    /// Its fitted coefficients with 1σ.
+    pub coefficients: Vec<Coefficient>,
+    /// fit_error (DESIGN §5).
+    pub fit_error: f64,
+    /// Maximal τ intervals where |z| > 3.
+    pub failing_tau: Vec<TauInterval>,
+    /// Maximal time spans where the model fails.
+    pub failing_spans: Vec<TimeSpan>,
+    /// Missing effects, best first.
+    pub suggestions: Vec<Suggestion>,
+    /// IMU messages the engine had received.
+    pub messages: u64,
+    /// Seconds of data covered.
+    pub until_s: f64,
+}
+
+impl WholeRun {
+    /// Writes these fields into a state message.
+    fn fill(&self, s: &mut AxisState) {
+        s.model.clone_from(&self.model);
+        s.coefficients.clone_from(&self.coefficients);
+        s.fit_error = self.fit_error;
+        s.failing_tau.clone_from(&self.failing_tau);
+        s.failing_spans.clone_from(&self.failing_spans);
+        s.suggestions.clone_from(&self.suggestions);
+        s.diagnosed_messages = self.messages;
+        s.diagnosed_until_s = self.until_s;
     }
 }
 
@@ -49,8 +82,14 @@ pub trait RowEngine: Send {
 pub enum Change {
     /// New DAVAR settings (window policy, F̃, σ²_ref, τ grid, …), already validated.
     Davar(Box<crate::pipeline::DavarConfig>),
-    /// A new model spec (comma-separated effects).
-    Model(String),
+    /// A new model spec (comma-separated effects) for every axis (`axis: None`, parameter
+    /// `model`) or one axis (`model.<axis>`; an empty spec hands the axis back to `model`).
+    Model {
+        /// The axis, or all.
+        axis: Option<Axis>,
+        /// The spec.
+        spec: String,
+    },
 }
 
 /// The kinds of bad input the node meets; each is logged once and counted.
@@ -160,8 +199,8 @@ pub struct Monitor {
     receive_time_stamps: Option<bool>,
     /// Rows kept for [`Monitor::drain_rows`] when recording is on.
     new_rows: Option<Vec<AxisState>>,
-    /// The latest diagnosis of each axis.
-    suggestions: [Vec<Suggestion>; 6],
+    /// The latest whole-run answer of each axis.
+    whole_run: [Option<WholeRun>; 6],
     /// What the latest diagnosis of each axis cost, ms of the analysis thread.
     diagnosis_ms: [Option<f64>; 6],
     /// Node time the last diagnosis round started, ns.
@@ -190,7 +229,7 @@ impl Monitor {
             recent_non_finite: [0; 6],
             new_rows: None,
             receive_time_stamps: None,
-            suggestions: Default::default(),
+            whole_run: Default::default(),
             diagnosis_ms: [None; 6],
             last_diagnosis_ns: None,
             diagnosis_due: Vec::new(),
@@ -213,7 +252,7 @@ impl Monitor {
     /// Changes the settings (live parameters).
     pub fn set_settings(&mut self, settings: MonitorSettings) {
         if settings.diagnosis_period_s == 0.0 {
-            self.suggestions = Default::default();
+            self.whole_run = Default::default();
             self.diagnosis_due.clear();
         }
         self.settings = settings;
@@ -224,15 +263,15 @@ impl Monitor {
     /// # Errors
     /// The engine's reason, or that no engine runs.
     pub fn reconfigure(&mut self, change: Change) -> Result<(), String> {
-        let new_model = matches!(change, Change::Model(_));
+        let new_model = matches!(change, Change::Model { .. });
         match self.engine.as_mut() {
             Some(e) => e.reconfigure(change)?,
             None => return Err("no F-DAVAR engine in this build".to_string()),
         }
         if new_model {
-            // Suggestions name what the old model lacked: diagnose the new one at once.
-            self.suggestions = Default::default();
+            // The published fit is the old model's: diagnose the new one at once (a new round).
             self.last_diagnosis_ns = None;
+            self.diagnosis_due.clear();
         }
         Ok(())
     }
@@ -242,22 +281,27 @@ impl Monitor {
     /// for more than one axis's diagnosis (the samples queue meanwhile).
     fn diagnose_next(&mut self, now_ns: i64) {
         let period = self.settings.diagnosis_period_s;
-        let Some(engine) = self.engine.as_ref().filter(|_| period > 0.0) else {
+        let Some(engine) = self.engine.as_mut().filter(|_| period > 0.0) else {
             return;
         };
         // Due after a period, at start, and when the node's time went backwards (sim time reset).
         let due = self
             .last_diagnosis_ns
             .is_none_or(|t| now_ns < t || (now_ns - t) as f64 * 1e-9 >= period);
-        if due && self.diagnosis_due.is_empty() {
+        // A round starts once some axis has a row: before that the run is too short to diagnose.
+        let any_row = self.latest.iter().any(Option::is_some);
+        if due && any_row && self.diagnosis_due.is_empty() {
             self.last_diagnosis_ns = Some(now_ns);
             self.diagnosis_due = Axis::ALL.iter().rev().copied().collect();
         }
-        // Only axes with a row: before that the whole run is too short to say anything.
+        // Axes still without a row sit this round out.
         while let Some(axis) = self.diagnosis_due.pop() {
             if self.latest[axis.index()].is_some() {
                 let start = std::time::Instant::now();
-                self.suggestions[axis.index()] = engine.diagnose(axis);
+                // Too short a run keeps the previous answer (none at first).
+                if let Ok(answer) = engine.diagnose(axis) {
+                    self.whole_run[axis.index()] = Some(answer);
+                }
                 self.diagnosis_ms[axis.index()] = Some(start.elapsed().as_secs_f64() * 1e3);
                 return;
             }
@@ -285,7 +329,11 @@ impl Monitor {
 
     /// Checks one received IMU sample and feeds the engine; returns the lines to log (each kind once).
     ///
-    /// `receive_ns` is the node time at reception (used when the stamp is zero, and for staleness).
+    /// `receive_ns` is the node time at reception (used when the stream's stamps are zero, and
+    /// for staleness). Every message reaches the engine, bad ones included: the engine's
+    /// [`crate::signal::Intake`] drops and places them exactly as `fdavar diagnose` does with the
+    /// recorded messages, so that live and offline see the same input. The checks here only
+    /// count and log.
     pub fn push(
         &mut self,
         mut sample: ImuSample,
@@ -300,14 +348,34 @@ impl Monitor {
         }
         // The clock of the stream is chosen by its first message: the sensor's stamps, or the
         // receive time when the driver leaves stamps zero (DESIGN §1). A zero stamp inside a
-        // stamped stream cannot be placed on the sensor clock: it is dropped and counted.
+        // stamped stream cannot be placed on the sensor clock: the engine drops it (it is earlier
+        // than every stamp), and it is counted here.
         let by_receive_time = *self.receive_time_stamps.get_or_insert(sample.stamp_ns == 0);
         if by_receive_time {
             sample.stamp_ns = receive_ns;
-        } else if sample.stamp_ns == 0 {
+        }
+        if self.classify(&sample, &mut log) {
+            self.counters.samples += 1;
+        }
+        if let Some(engine) = self.engine.as_mut() {
+            for (axis, mut state) in engine.push(&sample) {
+                state.header.frame_id.clone_from(&self.frame_id);
+                if let Some(rows) = self.new_rows.as_mut() {
+                    rows.push(state.clone());
+                }
+                self.latest[axis.index()] = Some(state);
+            }
+        }
+        log
+    }
+
+    /// Counts what is irregular about `sample`; true when it is a good sample (finite values, a
+    /// stamp after the previous good one).
+    fn classify(&mut self, sample: &ImuSample, log: &mut Vec<&'static str>) -> bool {
+        if sample.stamp_ns == 0 {
             self.counters.zero_stamps += 1;
             log.extend(self.note(BadInput::ZeroStamp));
-            return log;
+            return false;
         }
         let values = sample.values();
         if values.iter().any(|v| !v.is_finite()) {
@@ -318,20 +386,18 @@ impl Monitor {
                 }
             }
             log.extend(self.note(BadInput::NonFinite));
-            // The engine takes whole samples: a sample with a bad axis is left out on every axis,
-            // so that all six axes keep one time base. Counted per axis.
-            return log;
+            return false;
         }
         if let Some(last) = self.last_good_ns {
             if sample.stamp_ns == last {
                 self.counters.duplicates += 1;
                 log.extend(self.note(BadInput::Duplicate));
-                return log;
+                return false;
             }
             if sample.stamp_ns < last {
                 self.counters.backwards += 1;
                 log.extend(self.note(BadInput::Backwards));
-                return log;
+                return false;
             }
         }
         let period = self.period.push(sample.stamp_ns);
@@ -354,17 +420,7 @@ impl Monitor {
             None => (sample.stamp_ns, sample.stamp_ns, 1),
             Some((first, _, n)) => (first, sample.stamp_ns, n + 1),
         });
-        self.counters.samples += 1;
-        if let Some(engine) = self.engine.as_mut() {
-            for (axis, mut state) in engine.push(&sample) {
-                state.header.frame_id.clone_from(&self.frame_id);
-                if let Some(rows) = self.new_rows.as_mut() {
-                    rows.push(state.clone());
-                }
-                self.latest[axis.index()] = Some(state);
-            }
-        }
-        log
+        true
     }
 
     /// Feeds one reading of the temperature topic to the engine (the live temperature
@@ -414,13 +470,12 @@ impl Monitor {
         let mut states = Vec::new();
         for axis in Axis::ALL {
             let i = axis.index();
-            // The model is fitted here, on the row about to be published.
+            // The latest row, with the latest whole-run answer of its axis.
             let fitted = self.latest[i].as_ref().map(|s| {
                 let mut s = s.clone();
-                if let Some(engine) = &self.engine {
-                    engine.fit(&mut s);
+                if let Some(w) = &self.whole_run[i] {
+                    w.fill(&mut s);
                 }
-                s.suggestions.clone_from(&self.suggestions[i]);
                 s
             });
             let latest = fitted.as_ref();
@@ -456,12 +511,26 @@ impl Monitor {
                     KeyValue::new("fit_error", s.fit_error),
                     KeyValue::new("analysis_time_s", s.analysis_time_s),
                 ]);
+                values.push(KeyValue::new("model", s.model.join(",")));
                 for coef in &s.coefficients {
                     values.push(KeyValue::new(
                         &format!("{}.{} [{}]", coef.effect, coef.name, coef.unit),
                         coef.value,
                     ));
+                    if coef.sigma.is_finite() {
+                        values.push(KeyValue::new(
+                            &format!("{}.{}.sigma [{}]", coef.effect, coef.name, coef.unit),
+                            coef.sigma,
+                        ));
+                    }
                 }
+                let spans: Vec<String> = s
+                    .failing_spans
+                    .iter()
+                    .map(|t| format!("{:.1}-{:.1} s", t.start_s, t.end_s))
+                    .collect();
+                values.push(KeyValue::new("failing_spans", spans.join(",")));
+                values.push(KeyValue::new("diagnosed_messages", s.diagnosed_messages));
                 let suggestions: Vec<&str> =
                     s.suggestions.iter().map(|x| x.effect.as_str()).collect();
                 values.push(KeyValue::new("suggestions", suggestions.join(",")));
@@ -469,7 +538,7 @@ impl Monitor {
                     (
                         Level::Warn,
                         format!(
-                            "model fails: fit_error {:.2}; suggestions: [{}]",
+                            "model fails over the whole run: fit_error {:.2}; suggestions: [{}]",
                             s.fit_error,
                             suggestions.join(", ")
                         ),
@@ -608,9 +677,10 @@ mod tests {
         assert_eq!(c.zero_stamps, 2);
         assert_eq!(c.gaps, 2);
         assert_eq!(logged.len(), 5, "each kind once: {logged:?}");
-        // Only good samples reached the engine: 100 + 2 after gaps.
+        // 100 + 2 after gaps were good; every message reached the engine (its intake drops the
+        // bad ones as `fdavar diagnose` does): 110.
         assert_eq!(c.samples, 102);
-        assert_eq!(m.drain_rows().len(), 102);
+        assert_eq!(m.drain_rows().len(), 110);
         assert!(m.drain_rows().is_empty());
     }
 
@@ -707,9 +777,9 @@ mod tests {
         fn reconfigure(&mut self, _: Change) -> Result<(), String> {
             Ok(())
         }
-        fn diagnose(&self, axis: Axis) -> Vec<Suggestion> {
+        fn diagnose(&mut self, axis: Axis) -> Result<WholeRun, String> {
             self.0.lock().unwrap().push(axis);
-            if axis == Axis::GyroX {
+            let suggestions = if axis == Axis::GyroX {
                 vec![Suggestion {
                     effect: "sinusoid".into(),
                     fit_error_after: 0.9,
@@ -717,7 +787,12 @@ mod tests {
                 }]
             } else {
                 Vec::new()
-            }
+            };
+            Ok(WholeRun {
+                fit_error: 1.0,
+                suggestions,
+                ..WholeRun::default()
+            })
         }
     }
 
@@ -750,7 +825,7 @@ mod tests {
         assert!(last.status[0].message.contains("sinusoid"));
         assert_eq!(level(last, 1), Level::Ok as u8);
         assert_eq!(value(last, 1, "suggestions"), "");
-        // Period 0: off, and the suggestions are cleared.
+        // Period 0: off, and the whole-run answers are cleared.
         m.set_settings(MonitorSettings {
             diagnosis_period_s: 0.0,
             ..settings

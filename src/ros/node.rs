@@ -782,8 +782,13 @@ impl Analysis {
                 self.settings.diagnosis_period_s = *s;
                 self.monitor.set_settings(self.settings);
             }
-            ("model", ParameterValue::String(s)) => {
-                match self.monitor.reconfigure(Change::Model(s.clone())) {
+            (name, ParameterValue::String(s)) if name == "model" || name.starts_with("model.") => {
+                let axis = name.strip_prefix("model.").and_then(|a| a.parse().ok());
+                let change = Change::Model {
+                    axis,
+                    spec: s.clone(),
+                };
+                match self.monitor.reconfigure(change) {
                     Ok(()) => self.log.info(&format!("{name} = {s}")),
                     Err(e) => self.log.warn(&format!("{name} = {s} not applied: {e}")),
                 }

@@ -74,8 +74,32 @@ fn string(v: &ParameterValue) -> Result<(), String> {
 /// Checks a model spec (comma-separated effect ids or aliases) with the model's own parser.
 fn model_spec(v: &ParameterValue) -> Result<(), String> {
     match v {
-        ParameterValue::String(spec) => super::engine::model_kinds(spec).map(|_| ()),
+        ParameterValue::String(spec) => super::engine::model_spec(spec).map(|_| ()),
         other => Err(format!("must be a string like \"N,B,K\", got {other:?}")),
+    }
+}
+
+/// Checks a per-axis model: a spec, or empty (the axis follows `model`).
+fn axis_model_spec(v: &ParameterValue) -> Result<(), String> {
+    match v {
+        ParameterValue::String(spec) if spec.trim().is_empty() => Ok(()),
+        other => model_spec(other),
+    }
+}
+
+/// The name of the per-axis model parameter of `axis`: `model.<axis>`.
+pub fn axis_model_param(axis: crate::signal::Axis) -> String {
+    format!("model.{axis}")
+}
+
+/// The per-axis model parameter of one axis (see [`NODE_PARAMS`]).
+const fn axis_model(name: &'static str) -> ParamSpec {
+    ParamSpec {
+        name,
+        doc: "Noise model of this axis only (as `model`); empty: the axis follows `model`.",
+        default: || ParameterValue::String(String::new()),
+        validate: axis_model_spec,
+        live: true,
     }
 }
 
@@ -132,15 +156,22 @@ pub static NODE_PARAMS: &[ParamSpec] = &[
     },
     ParamSpec {
         name: "model",
-        doc: "Noise model fitted to each row: effect ids or aliases, comma-separated (e.g. N,B,K).",
+        doc: "Noise model fitted to the whole run of every axis: effect ids or aliases, \
+              comma-separated (e.g. N,B,K); `model.<axis>` overrides it on one axis.",
         default: || ParameterValue::String("N,B,K".to_string()),
         validate: model_spec,
         live: true,
     },
+    axis_model("model.gyro_x"),
+    axis_model("model.gyro_y"),
+    axis_model("model.gyro_z"),
+    axis_model("model.accel_x"),
+    axis_model("model.accel_y"),
+    axis_model("model.accel_z"),
     ParamSpec {
         name: "diagnosis_period_s",
-        doc: "Seconds between two diagnoses of the whole run (suggestions), one axis per \
-              publication; 0 turns the diagnosis off. [0, 3600].",
+        doc: "Seconds between two diagnoses of the whole run (coefficients, fit_error, failing \
+              τ and spans, suggestions), one axis per publication; 0 turns them off. [0, 3600].",
         default: || ParameterValue::Double(10.0),
         validate: |v| non_negative_double(v, 3600.0),
         live: true,

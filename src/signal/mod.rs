@@ -6,9 +6,11 @@
 //!
 //! No I/O and no ROS here: bag readers and the node convert their messages into [`ImuSample`].
 
+mod intake;
 mod period;
 pub mod text;
 
+pub use intake::{Intake, Placed};
 pub use period::{nominal_period, PeriodEstimator};
 
 use serde::{Deserialize, Serialize};
@@ -194,7 +196,9 @@ impl StampCheck {
             std::cmp::Ordering::Greater => {
                 let dt = (stamp_ns - last) as f64;
                 if dt > 1.5 * self.period_ns {
-                    let missing = ((dt / self.period_ns).round() as u64).saturating_sub(1).max(1);
+                    let missing = ((dt / self.period_ns).round() as u64)
+                        .saturating_sub(1)
+                        .max(1);
                     StampClass::Gap { missing }
                 } else {
                     StampClass::Next

@@ -4,9 +4,8 @@
 use crate::fit::{load, outcome, print_json, title, write_fit, Common};
 use crate::Outcome;
 use anyhow::Context;
-use fdavar::model::effects::REGISTRY;
 use fdavar::model::output::{allan_figure, comparison_figure, AxisReport, Report};
-use fdavar::model::{diagnose, FitOptions, ModelSpec};
+use fdavar::model::ModelSpec;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -21,20 +20,20 @@ use std::path::PathBuf;
 pub struct Args {
     /// rosbag2 recording: a bag directory, a .mcap or a .db3.
     pub bag: PathBuf,
-    /// Model to start from: comma-separated effect ids or aliases.
+    /// Model to start from: comma-separated effect ids or aliases for every axis, or AXIS=SPEC for
+    /// one axis (repeatable; later values win). Default N,B,K.
     #[arg(long, default_value = ModelSpec::DEFAULT)]
-    pub model: String,
+    pub model: Vec<String>,
     #[command(flatten)]
     pub common: Common,
 }
 
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
-    let spec = ModelSpec::parse(&args.model).context("invalid --model")?;
-    let rec = load(&args.bag, args.common.topic.as_deref())?;
-    let opts = FitOptions::default();
+    let mut analysis = load(&args.bag, &args.model, &args.common)?;
     let mut diagnoses = Vec::new();
     for axis in args.common.axes() {
-        let d = diagnose(&rec.input(axis), &spec, REGISTRY, &opts)
+        let d = analysis
+            .diagnose(axis)
             .with_context(|| format!("cannot diagnose {axis}"))?;
         diagnoses.push(d);
     }
@@ -73,15 +72,21 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         let name = title(&args.bag);
         for d in &diagnoses {
             let axis = d.fit.axis;
-            fdavar::report::figure::write_allan(&allan_figure(&d.fit, &name), &dir.join(format!("allan_{axis}")))
-                .with_context(|| format!("cannot write the figure of {axis}"))?;
+            fdavar::report::figure::write_allan(
+                &allan_figure(&d.fit, &name),
+                &dir.join(format!("allan_{axis}")),
+            )
+            .with_context(|| format!("cannot write the figure of {axis}"))?;
             if let (Some(s), Some(after)) = (d.suggestions.first(), d.after.first()) {
                 let stem = dir.join(format!("suggestion_{axis}_{}", s.effect));
-                fdavar::report::figure::write_allan_comparison(&comparison_figure(&d.fit, after, &name), &stem)
-                    .with_context(|| format!("cannot write the before/after figure of {axis}"))?;
+                fdavar::report::figure::write_allan_comparison(
+                    &comparison_figure(&d.fit, after, &name),
+                    &stem,
+                )
+                .with_context(|| format!("cannot write the before/after figure of {axis}"))?;
             }
         }
     }
     let fits: Vec<_> = diagnoses.into_iter().map(|d| d.fit).collect();
-    Ok(outcome(&rec, &fits))
+    Ok(outcome(&analysis, &fits))
 }

@@ -1,16 +1,16 @@
 //! `fdavar fit BAG --model SPEC [--topic T] [--axis A]... [--json] [--out DIR]`: fit a noise
 //! model to each axis's whole-record Allan variance and say where it fails.
 //!
-//! Also home of what `fdavar diagnose` shares: reading the bag into a
-//! [`fdavar::model::record::Recording`], the text table and the figures.
+//! Also home of what `fdavar diagnose` shares: feeding the bag into a [`fdavar::analysis::Analysis`]
+//! (the node's analysis path), the text table and the figures.
 
 use crate::Outcome;
 use anyhow::Context;
+use fdavar::analysis::{Analysis, AnalysisConfig};
 use fdavar::bag::{BagMessage, BagReader};
-use fdavar::model::effects::REGISTRY;
 use fdavar::model::output::{allan_figure, AxisReport, Report};
-use fdavar::model::record::Recording;
-use fdavar::model::{fit, FitOptions, FittedModel, ModelSpec};
+use fdavar::model::spec::axis_models;
+use fdavar::model::{FittedModel, ModelSpec};
 use fdavar::report::units::{Coefficient, Sensor};
 use fdavar::signal::Axis;
 use std::io::Write;
@@ -28,9 +28,11 @@ pub const FAILING_FIT_ERROR: f64 = 2.0;
 pub struct Args {
     /// rosbag2 recording: a bag directory, a .mcap or a .db3.
     pub bag: PathBuf,
-    /// Model: comma-separated effect ids or aliases, e.g. N,B,K,sinusoid.
-    #[arg(long)]
-    pub model: String,
+    /// Model: comma-separated effect ids or aliases, e.g. N,B,K,sinusoid, for every axis; or
+    /// AXIS=SPEC for one axis (repeatable; later values win), e.g. --model N,B,K --model
+    /// gyro_x=N,B,K,sinusoid.
+    #[arg(long, required = true)]
+    pub model: Vec<String>,
     #[command(flatten)]
     pub common: Common,
 }
@@ -50,6 +52,10 @@ pub struct Common {
     /// Directory for figures (PNG + SVG per axis).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Analyse only the first N IMU messages of the recording (counted as recorded, bad ones
+    /// included): the cut that reproduces what the node published with `diagnosed_messages: N`.
+    #[arg(long, value_name = "N")]
+    pub first: Option<u64>,
 }
 
 impl Common {
@@ -64,12 +70,11 @@ impl Common {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
-    let spec = ModelSpec::parse(&args.model).context("invalid --model")?;
-    let rec = load(&args.bag, args.common.topic.as_deref())?;
-    let opts = FitOptions::default();
+    let mut analysis = load(&args.bag, &args.model, &args.common)?;
     let mut fits = Vec::new();
     for axis in args.common.axes() {
-        let f = fit(&rec.input(axis), &spec, REGISTRY, &opts)
+        let f = analysis
+            .fit(axis)
             .with_context(|| format!("cannot fit {axis}"))?;
         fits.push(f);
     }
@@ -91,12 +96,12 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
                 .with_context(|| format!("cannot write the figure of {}", f.axis))?;
         }
     }
-    Ok(outcome(&rec, &fits))
+    Ok(outcome(&analysis, &fits))
 }
 
 /// Exit 3 when a model fails or the recording had irregularities (already reported on stderr).
-pub fn outcome(rec: &Recording, fits: &[FittedModel]) -> Outcome {
-    let irr = rec.irregularities;
+pub fn outcome(analysis: &Analysis, fits: &[FittedModel]) -> Outcome {
+    let irr = analysis.irregularities();
     let irregular = irr.gaps + irr.duplicates + irr.backwards + irr.non_finite;
     if irregular > 0 {
         eprintln!(
@@ -124,26 +129,36 @@ pub fn outcome(rec: &Recording, fits: &[FittedModel]) -> Outcome {
 
 /// A figure title from the bag's file name.
 pub fn title(bag: &Path) -> String {
-    bag.file_name()
-        .map_or_else(|| bag.display().to_string(), |n| n.to_string_lossy().into_owned())
+    bag.file_name().map_or_else(
+        || bag.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
 }
 
-/// Reads the IMU topic (and the temperature topic, if the bag has one) into a recording.
-pub fn load(path: &Path, topic: Option<&str>) -> anyhow::Result<Recording> {
+/// Feeds the IMU topic (and the temperature topic, if the bag has one) into an analysis with the
+/// `--model` values, in recorded order (nothing re-sorted: as `fdavar play` would deliver them to
+/// the node), up to `--first` IMU messages.
+pub fn load(path: &Path, model: &[String], common: &Common) -> anyhow::Result<Analysis> {
+    let models = axis_models(model, ModelSpec::DEFAULT).context("invalid --model")?;
     let bag = BagReader::open(path).with_context(|| format!("cannot open {}", path.display()))?;
-    let imu_topic = bag.imu_topic(topic)?.name.clone();
+    let imu_topic = bag.imu_topic(common.topic.as_deref())?.name.clone();
     let temp_topic = bag.temperature_topic(None)?.map(|t| t.name.clone());
-    let mut imu = Vec::new();
-    let mut temps = Vec::new();
+    let mut config = AnalysisConfig::whole_run(&models[0]);
+    config.models = models;
+    let mut analysis = Analysis::new(config).context("cannot start the analysis")?;
     for msg in bag.messages(&imu_topic, temp_topic.as_deref())? {
         match msg.with_context(|| format!("reading {}", path.display()))? {
-            BagMessage::Imu { sample, .. } => imu.push(sample),
-            BagMessage::Temperature { sample, .. } => temps.push(sample),
+            BagMessage::Imu { sample, .. } => {
+                if common.first.is_some_and(|n| analysis.messages() >= n) {
+                    break;
+                }
+                analysis.push(&sample);
+            }
+            BagMessage::Temperature { sample, .. } => analysis.push_temperature(&sample),
         }
     }
-    imu.sort_by_key(|s| s.stamp_ns);
-    Recording::from_samples(&imu, &temps)
-        .with_context(|| format!("{}: topic {imu_topic}", path.display()))
+    analysis.finish();
+    Ok(analysis)
 }
 
 /// Prints a JSON document and a newline.
@@ -156,17 +171,19 @@ pub fn print_json<T: serde::Serialize>(doc: &T) -> anyhow::Result<()> {
 
 /// The readable table of one fitted axis.
 pub fn write_fit(w: &mut dyn Write, f: &FittedModel) -> std::io::Result<()> {
-    writeln!(w, "{}  model {}  fit_error {:.2}", f.axis, f.spec, f.fit_error)?;
+    writeln!(
+        w,
+        "{}  model {}  fit_error {:.2}",
+        f.axis, f.spec, f.fit_error
+    )?;
     let sensor = Sensor::of_axis(f.axis.name());
     for t in &f.terms {
         for p in &t.params {
             let sigma = p.sigma.map_or(String::new(), |s| format!(" ± {s:.3e}"));
             let display = match (Coefficient::from_effect(&t.effect), sensor) {
-                (Some(c), Some(s)) if p.name == t.params[0].name => format!(
-                    "  = {:.4} {}",
-                    c.to_display(s, p.value),
-                    c.display_unit(s)
-                ),
+                (Some(c), Some(s)) if p.name == t.params[0].name => {
+                    format!("  = {:.4} {}", c.to_display(s, p.value), c.display_unit(s))
+                }
                 _ => String::new(),
             };
             writeln!(

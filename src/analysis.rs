@@ -1,0 +1,199 @@
+//! The one analysis path, live and offline: IMU samples in; DAVAR rows, the model's fit and the
+//! diagnosis out.
+//!
+//! ```text
+//! ImuSample ─┬─ Pipeline (F value → window policy → DAVAR row; optional)  → rows
+//!            └─ RecordBuilder (the whole run on the τ0 grid, bounded)      → fit → diagnosis
+//! Temperature ──┘
+//! ```
+//! Why one type: what a user reads — coefficients with their 1σ, fit_error, failing τ and time
+//! spans, suggestions — must be the same numbers whether the node computed them while the robot ran
+//! or `fdavar diagnose` computed them from the recording afterwards. Both push the same samples, in
+//! the order received, into an [`Analysis`] and ask it the same questions; the node only turns the
+//! answers into messages ([`crate::ros`]), the CLI into text and JSON.
+//!
+//! Both stages place samples with the same [`crate::signal::Intake`] rules (τ0, duplicates,
+//! backwards stamps, gaps, NaN). The whole run is the horizon of the fit: the record keeps it all,
+//! halving its rate when it grows past [`AnalysisConfig::max_samples`] (see [`crate::model::record`]).
+
+use crate::model::effects::REGISTRY;
+use crate::model::record::{RecordBuilder, RecordError};
+use crate::model::{diagnose, fit, Diagnosis, FitError, FitOptions, FittedModel, ModelSpec};
+use crate::pipeline::{AxisRow, DavarConfig, Output, Pipeline, PipelineError};
+use crate::signal::{Axis, ImuSample, Irregularities, TemperatureSample};
+
+/// How an [`Analysis`] runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AnalysisConfig {
+    /// The F-DAVAR settings; `None`: no rows (the CLI's `fit` and `diagnose` need none).
+    pub davar: Option<DavarConfig>,
+    /// Nominal period τ0 of the whole-run record, seconds; `None`: learned from the stamps.
+    pub tau0: Option<f64>,
+    /// The model of each axis ([`Axis::ALL`] order).
+    pub models: [ModelSpec; 6],
+    /// How models are fitted.
+    pub fit: FitOptions,
+    /// Values per axis the whole-run record keeps before halving its rate.
+    pub max_samples: usize,
+}
+
+impl AnalysisConfig {
+    /// No rows, `model` on every axis, τ0 from the stamps, default fit and memory bound.
+    pub fn whole_run(model: &ModelSpec) -> AnalysisConfig {
+        AnalysisConfig {
+            davar: None,
+            tau0: None,
+            models: std::array::from_fn(|_| model.clone()),
+            fit: FitOptions::default(),
+            max_samples: RecordBuilder::DEFAULT_MAX_SAMPLES,
+        }
+    }
+}
+
+/// Why an analysis question has no answer.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum AnalysisError {
+    /// No sample period yet (fewer than two distinct stamps so far).
+    #[error("no samples on a sample-period grid yet (fewer than two distinct stamps)")]
+    NoRecord,
+    /// The record stopped growing.
+    #[error(transparent)]
+    Record(#[from] RecordError),
+    /// The model could not be fitted.
+    #[error(transparent)]
+    Fit(#[from] FitError),
+}
+
+/// Samples in, rows and the whole-run model out (see the module doc).
+pub struct Analysis {
+    rows: Option<Pipeline>,
+    out: Output,
+    record: RecordBuilder,
+    models: [ModelSpec; 6],
+    fit: FitOptions,
+    messages: u64,
+}
+
+impl std::fmt::Debug for Analysis {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Analysis")
+            .field("rows", &self.rows)
+            .field("models", &self.models)
+            .field("messages", &self.messages)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Analysis {
+    /// An analysis of all six axes.
+    ///
+    /// # Errors
+    /// [`PipelineError`] when the DAVAR settings cannot run on a stream (e.g.
+    /// `sigma_ref.mode: record`, which needs the whole recording first).
+    pub fn new(config: AnalysisConfig) -> Result<Analysis, PipelineError> {
+        let rows = config
+            .davar
+            .map(|davar| Pipeline::new(davar, &Axis::ALL, None))
+            .transpose()?;
+        Ok(Analysis {
+            rows,
+            out: Output::default(),
+            record: RecordBuilder::new(config.tau0, config.max_samples),
+            models: config.models,
+            fit: config.fit,
+            messages: 0,
+        })
+    }
+
+    /// Feeds one IMU message; returns the DAVAR rows it completed (none without DAVAR settings).
+    pub fn push(&mut self, sample: &ImuSample) -> &[AxisRow] {
+        self.messages += 1;
+        self.record.push(sample);
+        self.out.rows.clear();
+        self.out.events.clear();
+        if let Some(p) = self.rows.as_mut() {
+            p.push(sample, &mut self.out);
+        }
+        &self.out.rows
+    }
+
+    /// Feeds one temperature reading (evidence for the `temperature` effect).
+    pub fn push_temperature(&mut self, reading: &TemperatureSample) {
+        self.record.push_temperature(reading);
+    }
+
+    /// Ends the input (a recording): places a short input whose period was never settled.
+    pub fn finish(&mut self) {
+        self.record.finish();
+    }
+
+    /// IMU messages pushed so far (the cut that makes an offline run equal to a live answer).
+    pub fn messages(&self) -> u64 {
+        self.messages
+    }
+
+    /// The period of the DAVAR rows, once known.
+    pub fn row_tau0(&self) -> Option<f64> {
+        self.rows.as_ref().and_then(Pipeline::tau0)
+    }
+
+    /// Irregularities of the input so far.
+    pub fn irregularities(&self) -> Irregularities {
+        self.record.irregularities()
+    }
+
+    /// Seconds from the first to the last sample placed in the whole-run record.
+    pub fn duration_s(&self) -> Option<f64> {
+        Some((self.record.last_stamp_ns()? - self.record.first_stamp_ns()?) as f64 * 1e-9)
+    }
+
+    /// Replaces the DAVAR settings: rows restart, on the new settings, half a window later. The
+    /// whole-run record does not depend on them and carries on.
+    ///
+    /// # Errors
+    /// As [`Analysis::new`].
+    pub fn set_davar(&mut self, davar: DavarConfig) -> Result<(), PipelineError> {
+        self.rows = Some(Pipeline::new(davar, &Axis::ALL, None)?);
+        Ok(())
+    }
+
+    /// The model of `axis`.
+    pub fn model(&self, axis: Axis) -> &ModelSpec {
+        &self.models[axis.index()]
+    }
+
+    /// Sets the model of `axis` (the next fit or diagnosis uses it).
+    pub fn set_model(&mut self, axis: Axis, model: ModelSpec) {
+        self.models[axis.index()] = model;
+    }
+
+    /// The model of `axis` fitted to the whole run so far.
+    ///
+    /// # Errors
+    /// [`AnalysisError`]: no record yet, a gap too long to lay out, or the fit's own errors.
+    pub fn fit(&mut self, axis: Axis) -> Result<FittedModel, AnalysisError> {
+        let spec = self.models[axis.index()].clone();
+        let opts = self.fit;
+        let rec = self.recording()?;
+        Ok(fit(&rec.input(axis), &spec, REGISTRY, &opts)?)
+    }
+
+    /// The model of `axis` fitted to the whole run so far, and the effects it lacks.
+    ///
+    /// # Errors
+    /// As [`Analysis::fit`].
+    pub fn diagnose(&mut self, axis: Axis) -> Result<Diagnosis, AnalysisError> {
+        let spec = self.models[axis.index()].clone();
+        let opts = self.fit;
+        let rec = self.recording()?;
+        Ok(diagnose(&rec.input(axis), &spec, REGISTRY, &opts)?)
+    }
+
+    fn recording(&mut self) -> Result<&crate::model::record::Recording, AnalysisError> {
+        if let Some(e) = self.record.error() {
+            return Err(e.clone().into());
+        }
+        self.record.recording().ok_or(AnalysisError::NoRecord)
+    }
+}

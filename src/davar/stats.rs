@@ -90,23 +90,32 @@ pub type IntervalFactors = (f64, f64, f64);
 #[derive(Debug, Clone)]
 pub struct IntervalCache {
     p_low: f64,
+    edf: fn(usize, usize) -> f64,
     by_key: HashMap<(usize, usize), IntervalFactors>,
 }
 
 impl IntervalCache {
-    /// A cache for the two-sided interval with lower tail `p_low` (e.g. [`ONE_SIGMA_LOW`]).
+    /// A cache for the two-sided interval with lower tail `p_low` (e.g. [`ONE_SIGMA_LOW`]), EDF
+    /// from [`edf_overlapping`].
     pub fn new(p_low: f64) -> Self {
+        Self::with_edf(p_low, edf_overlapping)
+    }
+
+    /// A cache whose EDF is `edf(m, terms)` (e.g. [`edf_closed_form`], exact at m = 1 for white
+    /// FM, which the change detector's false-alarm rate rests on).
+    pub fn with_edf(p_low: f64, edf: fn(usize, usize) -> f64) -> Self {
         IntervalCache {
             p_low,
+            edf,
             by_key: HashMap::new(),
         }
     }
 
     /// `(edf, lo, hi)` for `terms` squared differences at averaging factor `m`.
     pub fn factors(&mut self, m: usize, terms: usize) -> IntervalFactors {
-        let p_low = self.p_low;
+        let (p_low, edf_of) = (self.p_low, self.edf);
         *self.by_key.entry((m, terms)).or_insert_with(|| {
-            let edf = edf_overlapping(m, terms);
+            let edf = edf_of(m, terms);
             let (lo, hi) = chi2_factors(edf, p_low);
             (edf, lo, hi)
         })

@@ -19,8 +19,8 @@
 //!
 //! Conventions the fitter relies on (the effect files follow them): a spectral effect's σ²(τ) is
 //! proportional to the square of its *first* parameter (the amplitude); its other parameters are
-//! shape parameters, searched on a log scale over the range the τ grid can see (unit `s`: τmin/4
-//! to 4·τmax; unit `Hz`: the inverse).
+//! shape parameters, searched on a log scale over the range the τ grid can see (unit `s`: τmin
+//! to 4·τmax; unit `Hz`: the inverse) unless the kind gives its own ([`EffectKind::search_range`]).
 //!
 //! # References
 //! IEEE Std 952-1997, Annex C; Riley, NIST SP 1065 (2008), §5.2.4, Table 12; Lawson & Hanson (1974).
@@ -749,10 +749,12 @@ impl<'a> Problem<'a> {
                     .enumerate()
                     .skip(1)
                     .map(|(i, s)| {
-                        let (a, b) = match s.unit {
+                        // A time constant shorter than the shortest τ is a filter, not a wandering
+                        // bias: that regime belongs to the kinds that say so (`search_range`).
+                        let (a, b) = kind.search_range(i, tau_min, tau_max).unwrap_or(match s.unit {
                             "Hz" => (1.0 / (4.0 * tau_max), 1.0 / (2.0 * tau_min)),
-                            _ => (tau_min / 4.0, 4.0 * tau_max),
-                        };
+                            _ => (tau_min, 4.0 * tau_max),
+                        });
                         let a = a.max(s.bounds.0).max(f64::MIN_POSITIVE);
                         let b = b.min(s.bounds.1).max(a);
                         (i, a.ln(), b.ln())

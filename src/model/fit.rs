@@ -19,8 +19,8 @@
 //!
 //! Conventions the fitter relies on (the effect files follow them): a spectral effect's σ²(τ) is
 //! proportional to the square of its *first* parameter (the amplitude); its other parameters are
-//! shape parameters, searched on a log scale over the range the τ grid can see (unit `s`: τmin/4
-//! to 4·τmax; unit `Hz`: the inverse).
+//! shape parameters, searched on a log scale over the range the τ grid can see (unit `s`: τmin
+//! to 4·τmax; unit `Hz`: the inverse) unless the kind gives its own ([`EffectKind::search_range`]).
 //!
 //! # References
 //! IEEE Std 952-1997, Annex C; Riley, NIST SP 1065 (2008), §5.2.4, Table 12; Lawson & Hanson (1974).
@@ -749,10 +749,12 @@ impl<'a> Problem<'a> {
                     .enumerate()
                     .skip(1)
                     .map(|(i, s)| {
-                        let (a, b) = match s.unit {
+                        // A time constant shorter than the shortest τ is a filter, not a wandering
+                        // bias: that regime belongs to the kinds that say so (`search_range`).
+                        let (a, b) = kind.search_range(i, tau_min, tau_max).unwrap_or(match s.unit {
                             "Hz" => (1.0 / (4.0 * tau_max), 1.0 / (2.0 * tau_min)),
-                            _ => (tau_min / 4.0, 4.0 * tau_max),
-                        };
+                            _ => (tau_min, 4.0 * tau_max),
+                        });
                         let a = a.max(s.bounds.0).max(f64::MIN_POSITIVE);
                         let b = b.min(s.bounds.1).max(a);
                         (i, a.ln(), b.ln())
@@ -1069,12 +1071,14 @@ impl<'a> Problem<'a> {
         let mut c = vec![0.0; jn];
         let mut best_cost = f64::INFINITY;
         for _ in 0..iterations {
-            // Gauss–Newton on Σ (edf/2)·ln²(meas/model), linearised around the current model:
-            // target tᵢ = modelᵢ·(1 + ln(measᵢ/modelᵢ)), weight 1/(modelᵢ·√(2/edfᵢ)).
+            // Iteratively reweighted Gauss–Newton on [`log_cost`], linearised around the current
+            // model: target tᵢ = modelᵢ·(1 + ln(measᵢ/modelᵢ)), weight 1/(modelᵢ·√(2/wᵢ)) with
+            // wᵢ = edfᵢ/(1 + zᵢ²/C²) ([`robust_edf`]).
+            let wedf = robust_edf(&meas, &model, &edf);
             let sd: Vec<f64> = (0..k)
                 .map(|i| {
                     let base = if model[i] > 0.0 { model[i] } else { meas[i] };
-                    base * (2.0 / edf[i]).sqrt()
+                    base * (2.0 / wedf[i]).sqrt()
                 })
                 .collect();
             let target: Vec<f64> = (0..k)
@@ -1330,21 +1334,53 @@ fn golden_section(
     Ok(0.5 * (a + b))
 }
 
-/// The fit's objective: Σ (edf/2)·(ln(meas/model) − bias(edf))², the log-normal approximation of the χ²
-/// likelihood of AVAR estimates. It weighs over- and under-prediction alike, where the contract's z
-/// (scaled by the model) forgives a model that over-predicts where the EDF is small.
+/// Scale C of the robust loss, in units of z: points beyond |z| ≈ C lose their pull on the fit.
+///
+/// Why robust: with diagonal weights EDF/2 a few τ points of very large EDF (the shortest τ of a long
+/// record) or a bump the model cannot follow (a vibration line) pulled a wrong model off *every*
+/// point — on the ADIS16405's accel axes N,B,K lay above all points from 1.5 to 20 s. With the
+/// Cauchy loss the points the model cannot explain stop dictating it, and it follows the others,
+/// failing (large |z|) only where it fails. C = 3 is the contract's failing |z|; for a model that
+/// explains the data (|z| ~ N(0,1)) the weights are 0.9 ± 0.1 and the estimates move little.
+const ROBUST_C: f64 = 3.0;
+
+/// zᵢ of the log fit: √(edfᵢ/2)·(ln(measᵢ/modelᵢ) − bias(edfᵢ)), the standardised log residual.
+fn log_z(y: f64, m: f64, e: f64) -> f64 {
+    (0.5 * e).sqrt() * ((y / m).ln() - log_bias(e))
+}
+
+/// The fit's objective: Σ C²·ln(1 + zᵢ²/C²) over the log residuals zᵢ ([`log_z`]) — the Cauchy
+/// (Lorentzian) loss of the log-normal approximation of the χ² likelihood of AVAR estimates
+/// (Σ zᵢ² for small z). In log σ² it weighs over- and under-prediction alike, where the contract's
+/// z (scaled by the model) forgives a model that over-predicts where the EDF is small.
+///
+/// # References
+/// P. J. Huber, E. M. Ronchetti, "Robust Statistics", 2nd ed., Wiley 2009, §7 (M-estimators,
+/// iteratively reweighted least squares).
 fn log_cost(meas: &[f64], model: &[f64], edf: &[f64]) -> f64 {
     meas.iter()
         .zip(model)
         .zip(edf)
         .map(|((&y, &m), &e)| {
             if m > 0.0 {
-                0.5 * e * ((y / m).ln() - log_bias(e)).powi(2)
+                ROBUST_C * ROBUST_C * (log_z(y, m, e) / ROBUST_C).powi(2).ln_1p()
             } else {
                 f64::MAX / 1e3
             }
         })
         .sum()
+}
+
+/// The IRLS weights of [`log_cost`] as effective EDFs: edfᵢ/(1 + zᵢ²/C²) at the current model.
+fn robust_edf(meas: &[f64], model: &[f64], edf: &[f64]) -> Vec<f64> {
+    meas.iter()
+        .zip(model)
+        .zip(edf)
+        .map(|((&y, &m), &e)| {
+            let z = if m > 0.0 && y > 0.0 { log_z(y, m, e) } else { 0.0 };
+            e / (1.0 + (z / ROBUST_C).powi(2))
+        })
+        .collect()
 }
 
 /// E[ln(σ̂²/σ²)] for an estimate with `edf` degrees of freedom: the log of a χ²_ν/ν variable is

@@ -9,6 +9,7 @@ use rand::RngCore;
 use serde::{Deserialize, Serialize};
 use std::fmt::Debug;
 
+mod bandwidth;
 mod bias_instability;
 mod bias_step;
 mod g_sensitivity;
@@ -21,6 +22,7 @@ mod sinusoid;
 mod temperature;
 mod white;
 
+pub use bandwidth::Bandwidth;
 pub use bias_instability::BiasInstability;
 pub use bias_step::BiasStep;
 pub use g_sensitivity::GSensitivity;
@@ -43,6 +45,7 @@ pub static REGISTRY: &[&dyn EffectKind] = &[
     &random_walk::KIND,
     &ramp::KIND,
     &sinusoid::KIND,
+    &bandwidth::KIND,
     &gauss_markov::KIND,
     &bias_step::KIND,
     &noise_burst::KIND,
@@ -265,6 +268,13 @@ pub trait EffectKind: Sync {
     /// When the simulator applies it; [`SimStage::Additive`] unless the kind says otherwise.
     fn sim_stage(&self) -> SimStage {
         SimStage::Additive
+    }
+    /// The range (lo, hi) the fitter searches shape parameter `index` over, for a τ grid from
+    /// `tau_min` to `tau_max` seconds; `None` (the default): the fitter's rule for the unit
+    /// (`s`: τmin/4 to 4·τmax; `Hz`: 1/(4·τmax) to Nyquist, 1/(2·τmin)).
+    fn search_range(&self, index: usize, tau_min: f64, tau_max: f64) -> Option<(f64, f64)> {
+        let _ = (index, tau_min, tau_max);
+        None
     }
 }
 

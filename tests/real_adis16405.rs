@@ -1,0 +1,120 @@
+//! The workbench on a real sensor: the ADIS16405 static recording of `../shared/reference/real/`
+//! (read from there, never copied into the repository: CC BY-NC-SA; the test skips, saying so,
+//! when it is absent).
+//!
+//! The first hour (360 000 samples at 100 Hz) of each gyro axis, converted from deg/s to rad/s.
+//! What it checks (issue 10, Done 2, the part that holds today; gyro_z below): on gyro_x and gyro_y the diagnosis
+//! of N,B,K names the sensor's low-pass (`bandwidth`) first, the model with it fits with
+//! fit_error ≤ 2, its ARW is near the data sheet's (about 2 °/√h: accepted 1.5–3 °/√h) and its
+//! cut-off lies between the Nyquist frequency's half (25 Hz) and the sensor's 330 Hz analog
+//! bandwidth; where z is green (|z| ≤ 3) the model lies inside the 1σ band of the point (whose
+//! width is the model's own √(2/EDF), so |z| ≤ 1 there would be the same test: checked as the
+//! share of green points within 1σ, at least 60 % — about 68 % for a model that follows the data).
+
+use fdavar::model::diagnose::diagnose;
+use fdavar::model::effects::REGISTRY;
+use fdavar::model::fit::{fit, AxisInput, FitOptions, FittedModel};
+use fdavar::model::spec::ModelSpec;
+use fdavar::signal::Axis;
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+
+const RATE_HZ: f64 = 100.0;
+const SAMPLES: usize = 360_000;
+
+fn recording() -> Option<PathBuf> {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/reference/real/adis16405_static_run1.csv.gz");
+    p.exists().then_some(p)
+}
+
+/// The six columns of the first `SAMPLES` rows: gyro in rad/s, accel in m/s².
+fn read(path: &PathBuf) -> [Vec<f64>; 6] {
+    let file = std::fs::File::open(path).expect("open recording");
+    let reader = BufReader::new(flate2::read::GzDecoder::new(file));
+    let mut cols: [Vec<f64>; 6] = Default::default();
+    for line in reader.lines().map(|l| l.expect("read line")) {
+        if line.starts_with('#') || line.starts_with("index") {
+            continue;
+        }
+        let v: Vec<f64> = line.split(',').map(|f| f.parse().expect("number")).collect();
+        for (i, col) in cols.iter_mut().enumerate() {
+            let scale = if i < 3 { std::f64::consts::PI / 180.0 } else { 9.80665 };
+            col.push(v[1 + i] * scale);
+        }
+        if cols[0].len() == SAMPLES {
+            break;
+        }
+    }
+    cols
+}
+
+fn input(axis: Axis, rate: &[f64]) -> AxisInput<'_> {
+    AxisInput { axis, tau0: 1.0 / RATE_HZ, rate, temperature_c: None, accel: None, events: &[] }
+}
+
+fn arw_deg_per_sqrt_h(n: f64) -> f64 {
+    n.to_degrees() * 60.0
+}
+
+fn green_within_one_sigma(f: &FittedModel) -> f64 {
+    let green: Vec<_> = f.points.iter().filter(|p| p.z.abs() <= 3.0).collect();
+    green.iter().filter(|p| p.z.abs() <= 1.0).count() as f64 / green.len().max(1) as f64
+}
+
+#[test]
+fn adis16405_gyro_is_white_noise_through_its_low_pass() {
+    let Some(path) = recording() else {
+        println!("skipped: ../shared/reference/real/adis16405_static_run1.csv.gz is absent");
+        return;
+    };
+    let cols = read(&path);
+    let opts = FitOptions::default();
+    let base = ModelSpec::parse("N,B,K").unwrap();
+    for (axis, rate) in [(Axis::GyroX, &cols[0]), (Axis::GyroY, &cols[1])] {
+        let d = diagnose(&input(axis, rate), &base, REGISTRY, &opts).unwrap();
+        let names: Vec<&str> = d.suggestions.iter().map(|s| s.effect.as_str()).collect();
+        println!("{}: N,B,K fit_error {:.2}, suggestions {names:?}", axis.name(), d.fit.fit_error);
+        assert_eq!(names.first(), Some(&"bandwidth"), "{}", axis.name());
+        let spec = ModelSpec::parse("B,K,bandwidth").unwrap();
+        let f = fit(&input(axis, rate), &spec, REGISTRY, &opts).unwrap();
+        let bw = f.term("bandwidth").unwrap();
+        let arw = arw_deg_per_sqrt_h(bw.param("n").unwrap().value);
+        let fc = bw.param("cutoff_hz").unwrap().value;
+        let share = green_within_one_sigma(&f);
+        println!(
+            "{}: B,K,bandwidth fit_error {:.2} (whole record {:.2}), ARW {arw:.2} deg/sqrt(h), \
+             cut-off {fc:.1} Hz, green points within 1 sigma {:.0} %",
+            axis.name(),
+            f.fit_error,
+            f.whole_fit_error,
+            100.0 * share
+        );
+        assert!(f.fit_error <= 2.0, "{}: fit_error {}", axis.name(), f.fit_error);
+        assert!((1.5..=3.0).contains(&arw), "{}: ARW {arw}", axis.name());
+        assert!((25.0..=330.0).contains(&fc), "{}: cut-off {fc}", axis.name());
+        assert!(share >= 0.6, "{}: {share}", axis.name());
+    }
+}
+
+/// gyro_z has a vibration line near 21 Hz on top of the low-pass: with it the model fits (1.98,
+/// measured; the line is a narrow band, not one sinusoid, which is why it is not lower).
+#[test]
+fn adis16405_gyro_z_is_the_low_pass_and_a_21_hz_line() {
+    let Some(path) = recording() else {
+        println!("skipped: ../shared/reference/real/adis16405_static_run1.csv.gz is absent");
+        return;
+    };
+    let cols = read(&path);
+    let spec = ModelSpec::parse("B,K,bandwidth,sinusoid").unwrap();
+    let f = fit(&input(Axis::GyroZ, &cols[2]), &spec, REGISTRY, &FitOptions::default()).unwrap();
+    let bw = f.term("bandwidth").unwrap();
+    let arw = arw_deg_per_sqrt_h(bw.param("n").unwrap().value);
+    let fc = bw.param("cutoff_hz").unwrap().value;
+    let line = f.term("sinusoid").unwrap().param("frequency_hz").unwrap().value;
+    println!("gyro_z: fit_error {:.2}, ARW {arw:.2} deg/sqrt(h), cut-off {fc:.1} Hz, line {line:.2} Hz", f.fit_error);
+    assert!(f.fit_error <= 2.0, "fit_error {}", f.fit_error);
+    assert!((1.5..=3.0).contains(&arw), "ARW {arw}");
+    assert!((25.0..=330.0).contains(&fc), "cut-off {fc}");
+    assert!((20.0..=22.0).contains(&line), "line {line}");
+}

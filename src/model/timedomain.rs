@@ -12,6 +12,9 @@
 
 use crate::model::effects::EffectKind;
 use crate::model::fit::{AxisInput, FitError};
+use crate::model::measure::NoiseClass;
+use rustfft::{num_complex::Complex, FftPlanner};
+use statrs::function::erf::erfc;
 
 /// What an estimator found: values in the effect's schema order, 1σ where known.
 #[derive(Debug, Clone, PartialEq)]
@@ -24,6 +27,19 @@ pub struct Estimate {
     pub is_event: bool,
     /// A log-likelihood-ratio-like strength of the detection (≥ 0), for the diagnosis.
     pub strength: f64,
+    /// What the effect changes, which decides how the diagnosis tests it against the base noise.
+    pub signature: Signature,
+}
+
+/// What a time-domain effect changes in the rate, which decides its test (see [`Whitened`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Signature {
+    /// A bias that follows a measured driver (a regression on it).
+    Driven,
+    /// A step in the mean at one time (a scan over the time).
+    MeanStep,
+    /// A span with a louder white level (a scan over spans of block variances).
+    WhiteLevel,
 }
 
 const ORDER: [&str; 4] = ["temperature", "g_sensitivity", "bias_step", "noise_burst"];
@@ -65,7 +81,13 @@ pub fn estimate(
             let t = input.temperature_c.ok_or_else(|| missing("a temperature topic"))?;
             let (c, s, _) = regress(series, t);
             let (_, _, strength) = regress_slow(series, t);
-            Ok(Estimate { values: vec![c], sigmas: vec![Some(s)], is_event: false, strength })
+            Ok(Estimate {
+                values: vec![c],
+                sigmas: vec![Some(s)],
+                is_event: false,
+                strength,
+                signature: Signature::Driven,
+            })
         }
         "g_sensitivity" => {
             let acc = input
@@ -82,6 +104,7 @@ pub fn estimate(
                 sigmas: vec![None, Some(s)],
                 is_event: false,
                 strength,
+                signature: Signature::Driven,
             })
         }
         "bias_step" => {
@@ -91,6 +114,7 @@ pub fn estimate(
                 sigmas: vec![None, None],
                 is_event: true,
                 strength,
+                signature: Signature::MeanStep,
             })
         }
         "noise_burst" => {
@@ -100,6 +124,7 @@ pub fn estimate(
                 sigmas: vec![None, None, None],
                 is_event: true,
                 strength: b.strength,
+                signature: Signature::WhiteLevel,
             })
         }
         _ => Err(FitError::NoEstimator(kind.id())),
@@ -108,7 +133,11 @@ pub fn estimate(
 
 /// Removes an estimated effect from `series`.
 pub fn remove(kind: &dyn EffectKind, est: &Estimate, input: &AxisInput<'_>, series: &mut [f64]) {
-    let v = &est.values;
+    remove_values(kind, &est.values, input, series);
+}
+
+/// Removes an effect given by its values in schema order (a fitted term's) from `series`.
+pub fn remove_values(kind: &dyn EffectKind, v: &[f64], input: &AxisInput<'_>, series: &mut [f64]) {
     match kind.id() {
         "temperature" => {
             if let Some(t) = input.temperature_c {
@@ -253,23 +282,377 @@ pub fn regress_slow(y: &[f64], x: &[f64]) -> (f64, f64, f64) {
     (c, se_eff, strength)
 }
 
-/// Whether a time-domain estimate is significant on its own evidence.
+/// The fitted base noise of an axis as the time-domain tests see it: a sum of power-law terms.
 ///
-/// Thresholds on the estimators' statistics: a regression's t² above 25 (5σ), a step contrast
-/// above 40 times its robust variance (6.3σ: the maximum over ~n/W positions of a χ²₁ stays far
-/// below), a burst's likelihood ratio above 30.
-pub fn is_significant(kind: &dyn EffectKind, est: &Estimate) -> bool {
-    let threshold = match kind.id() {
-        "temperature" | "g_sensitivity" => 25.0,
-        "bias_step" => 40.0,
-        "noise_burst" => 30.0,
-        _ => return false,
+/// Why: a step, a temperature drift or a g-sensitivity is judged by how unlikely its estimate
+/// would be under the noise the axis has — white rate noise, flicker and random walk — not under
+/// white noise alone. With flicker and random walk a record wanders, and a white-noise test takes
+/// the wander for a step or for a regression on any slow driver (a "spurious regression").
+///
+/// Each term is one [`NoiseClass`] with a coefficient `a` read from its Allan variance curve:
+///
+/// # Formula
+/// ```text
+/// class      σ²(τ)     rate PSD S(f), one-sided              rate structure D(τ) = E[(y(t+τ) − y(t))²]
+/// white PM   3a/τ²     2a·τ0·(2 sin πfτ0)²/τ0²               4a/τ0²
+/// white FM   a/τ       2a                                     2a/τ0
+/// flicker    a         h/f,  h = a/(2 ln 2)                   2h·(ln(πτ/τ0) + γ)
+/// RW FM      a·τ       3a/(2π²f²)                             3a·τ
+/// ```
+/// (NIST SP 1065 Table 6: σ² = h₀/(2τ), 2 ln2·h₋₁, (2π²/3)·h₋₂·τ; the flicker structure function
+/// with the Nyquist frequency 1/(2τ0) as its upper cutoff, γ = 0.5772). `a` is the largest value
+/// the curve implies over its τ grid: exact for a power law, and for a term that is none (a
+/// Gauss–Markov bias counts as white FM, its long-τ asymptote) never below the term's power at
+/// any τ, so the tests stay conservative.
+///
+/// # References
+/// Riley W. J., NIST SP 1065 (2008), §5.2 and Table 6; IEEE Std 952-1997 Annex C.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NoiseSpectrum {
+    tau0: f64,
+    parts: Vec<(NoiseClass, f64)>,
+}
+
+impl NoiseSpectrum {
+    /// The spectrum of terms given as (class, σ²(τ) on `taus`), for samples `tau0` apart.
+    pub fn from_curves<'a>(
+        tau0: f64,
+        taus: &[f64],
+        terms: impl IntoIterator<Item = (NoiseClass, &'a [f64])>,
+    ) -> Self {
+        let parts = terms
+            .into_iter()
+            .map(|(class, curve)| {
+                let a = taus
+                    .iter()
+                    .zip(curve)
+                    .map(|(&t, &v)| match class {
+                        NoiseClass::WhitePm => v * t * t / 3.0,
+                        NoiseClass::WhiteFm => v * t,
+                        NoiseClass::FlickerFm => v,
+                        NoiseClass::RandomWalkFm => v / t,
+                    })
+                    .filter(|a| a.is_finite())
+                    .fold(0.0, f64::max);
+                (class, a)
+            })
+            .filter(|&(_, a)| a > 0.0)
+            .collect();
+        NoiseSpectrum { tau0, parts }
+    }
+
+    /// Allan variance at τ seconds.
+    pub fn avar(&self, tau: f64) -> f64 {
+        self.parts
+            .iter()
+            .map(|&(class, a)| match class {
+                NoiseClass::WhitePm => 3.0 * a / (tau * tau),
+                NoiseClass::WhiteFm => a / tau,
+                NoiseClass::FlickerFm => a,
+                NoiseClass::RandomWalkFm => a * tau,
+            })
+            .sum()
+    }
+
+    /// One-sided PSD of the rate at `f` Hz (0 < f ≤ 1/(2τ0)).
+    pub fn rate_psd(&self, f: f64) -> f64 {
+        let tau0 = self.tau0;
+        let pi = std::f64::consts::PI;
+        self.parts
+            .iter()
+            .map(|&(class, a)| match class {
+                NoiseClass::WhitePm => 2.0 * a * (2.0 * (pi * f * tau0).sin()).powi(2) / tau0,
+                NoiseClass::WhiteFm => 2.0 * a,
+                NoiseClass::FlickerFm => a / (2.0 * std::f64::consts::LN_2) / f,
+                NoiseClass::RandomWalkFm => 3.0 * a / (2.0 * pi * pi) / (f * f),
+            })
+            .sum()
+    }
+
+    /// Structure function of the rate, E[(y(t+τ) − y(t))²], at τ ≥ τ0.
+    pub fn rate_structure(&self, tau: f64) -> f64 {
+        let tau0 = self.tau0;
+        self.parts
+            .iter()
+            .map(|&(class, a)| match class {
+                NoiseClass::WhitePm => 4.0 * a / (tau0 * tau0),
+                NoiseClass::WhiteFm => 2.0 * a / tau0,
+                NoiseClass::FlickerFm => {
+                    a / std::f64::consts::LN_2 * ((std::f64::consts::PI * tau / tau0).ln() + 0.577_215_664_9)
+                }
+                NoiseClass::RandomWalkFm => 3.0 * a * tau,
+            })
+            .sum()
+    }
+
+    /// How many times the Gaussian likelihood ratio of [`find_burst`] over-counts its degrees of
+    /// freedom: the block variances sum squared first differences, which are correlated.
+    ///
+    /// # Formula
+    /// ```text
+    /// factor = 1 + 2·Σ_{h=1..8} ρ_Δ(h)²,   ρ_Δ(h) = ∫ S_Δ(f)·cos(2πfhτ0) df / ∫ S_Δ(f) df
+    /// S_Δ(f) = (2 sin πfτ0)²·S(f)
+    /// ```
+    /// the variance of a sum of squares of a correlated Gaussian sequence over that of an
+    /// independent one (ρ_Δ(1) = −½ for white noise: 1.5).
+    pub fn burst_dof_factor(&self) -> f64 {
+        const BINS: usize = 4096;
+        let f_n = 0.5 / self.tau0;
+        let spectrum: Vec<(f64, f64)> = (0..BINS)
+            .map(|k| {
+                let f = (k as f64 + 0.5) / BINS as f64 * f_n;
+                (f, (2.0 * (std::f64::consts::PI * f * self.tau0).sin()).powi(2) * self.rate_psd(f))
+            })
+            .collect();
+        let total: f64 = spectrum.iter().map(|p| p.1).sum();
+        if !(total > 0.0) {
+            return 1.5;
+        }
+        let rho = |h: f64| {
+            spectrum
+                .iter()
+                .map(|&(f, s)| s * (2.0 * std::f64::consts::PI * f * self.tau0 * h).cos())
+                .sum::<f64>()
+                / total
+        };
+        1.0 + 2.0 * (1..=8).map(|h| rho(h as f64).powi(2)).sum::<f64>()
+    }
+}
+
+/// A regression coefficient with its standard error under the base noise, and t².
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Regression {
+    /// Coefficient, SI.
+    pub coefficient: f64,
+    /// Its 1σ under the base noise.
+    pub sigma: f64,
+    /// (coefficient/σ)²: χ²₁ when there is no effect.
+    pub t2: f64,
+}
+
+/// A rate series, tapered, Fourier transformed and weighted by the base noise: generalised least
+/// squares in the frequency domain (Whittle's approximation of the Gaussian likelihood).
+///
+/// Why the frequency domain: the Fourier coefficients of stationary noise are nearly independent
+/// with variance ∝ S(f), so the GLS fit of any driver — a slow temperature or a fast vibration —
+/// costs one transform. Why a taper: flicker and random walk put most of their power at the lowest
+/// frequencies, and a rectangular window leaks it (side lobes ∝ 1/Δk²) into every other bin; the
+/// Hann taper's side lobes fall as 1/Δk⁶. Its price is known: neighbouring coefficients of a
+/// tapered series correlate (ρ₁ = −2/3, ρ₂ = 1/6 for coefficients that were independent), which
+/// the variance below includes. A regression on first differences was rejected: it removes the
+/// low frequencies that carry a slow driver.
+///
+/// # Formula
+/// ```text
+/// Y_k = DFT(h·(y − ȳ))_k,  X_k = DFT(h·(x − x̄))_k,   h_j = sin²(π(j+½)/n)
+/// σ_k² = (3/8)·n·S(f_k)/(2τ0),   b_k = X_k/σ_k,   k = 1 … ⌈n/2⌉−1
+/// c = Σ Re(X_k* Y_k)/σ_k² / Σ |b_k|²
+/// var(c) = ½·[Σ|b_k|² + 2ρ₁·Re Σ b_k* b_{k+1} + 2ρ₂·Re Σ b_k* b_{k+2}] / (Σ |b_k|²)²
+/// ```
+///
+/// # References
+/// Whittle P., "Curve and periodogram smoothing", JRSS B 19(1), 1957; Percival D. B. & Walden
+/// A. T., Spectral Analysis for Physical Applications, CUP 1993, §6.4 (tapers) and §9.
+pub struct Whitened {
+    noise: NoiseSpectrum,
+    len: usize,
+    spectrum: Vec<Complex<f64>>,
+    sd: Vec<f64>,
+}
+
+impl std::fmt::Debug for Whitened {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Whitened").field("len", &self.len).finish_non_exhaustive()
+    }
+}
+
+/// Correlation of neighbouring Fourier coefficients of a Hann-tapered series (lag 1, lag 2).
+const HANN_RHO: [f64; 2] = [-2.0 / 3.0, 1.0 / 6.0];
+
+impl Whitened {
+    /// Transforms `y` (non-finite samples read as the mean) and weights it by `noise`. `None` for
+    /// fewer than 16 samples or a spectrum without power.
+    pub fn new(y: &[f64], noise: &NoiseSpectrum) -> Option<Self> {
+        let len = y.len();
+        if len < 16 {
+            return None;
+        }
+        let spectrum = tapered_dft(y);
+        let sd: Vec<f64> = (0..spectrum.len())
+            .map(|k| {
+                let s = if k == 0 { 0.0 } else { noise.rate_psd(k as f64 / (len as f64 * noise.tau0)) };
+                (0.375 * len as f64 * s / (2.0 * noise.tau0)).sqrt()
+            })
+            .collect();
+        if sd.iter().skip(1).any(|s| !(s.is_finite() && *s > 0.0)) {
+            return None;
+        }
+        Some(Whitened { noise: noise.clone(), len, spectrum, sd })
+    }
+
+    /// The base noise the series is weighted by.
+    pub fn noise(&self) -> &NoiseSpectrum {
+        &self.noise
+    }
+
+    /// GLS regression of the rate on a driver `x` (one value per rate sample).
+    pub fn regress(&self, x: &[f64]) -> Option<Regression> {
+        if x.len() != self.len {
+            return None;
+        }
+        let xs = tapered_dft(x);
+        let b: Vec<Complex<f64>> = (1..xs.len()).map(|k| xs[k] / self.sd[k]).collect();
+        let num: f64 = (1..xs.len())
+            .map(|k| (xs[k].conj() * self.spectrum[k]).re / (self.sd[k] * self.sd[k]))
+            .sum();
+        let den: f64 = b.iter().map(|v| v.norm_sqr()).sum();
+        if !(den > 0.0) {
+            return None;
+        }
+        let lag = |d: usize| b.iter().zip(b.iter().skip(d)).map(|(p, q)| (p.conj() * q).re).sum::<f64>();
+        let var_num = 0.5 * (den + 2.0 * HANN_RHO[0] * lag(1) + 2.0 * HANN_RHO[1] * lag(2));
+        if !(var_num > 0.0) {
+            return None;
+        }
+        let coefficient = num / den;
+        let sigma = var_num.sqrt() / den;
+        Some(Regression { coefficient, sigma, t2: (coefficient / sigma).powi(2) })
+    }
+}
+
+/// DFT of `y` − mean, Hann-tapered (non-finite samples read as the mean), bins 0 … ⌈n/2⌉−1.
+fn tapered_dft(y: &[f64]) -> Vec<Complex<f64>> {
+    let mean = finite_mean(y);
+    let n = y.len();
+    let mut d: Vec<Complex<f64>> = y
+        .iter()
+        .enumerate()
+        .map(|(j, &v)| {
+            let h = (std::f64::consts::PI * (j as f64 + 0.5) / n as f64).sin().powi(2);
+            Complex::new(if v.is_finite() { (v - mean) * h } else { 0.0 }, 0.0)
+        })
+        .collect();
+    FftPlanner::new().plan_fft_forward(n).process(&mut d);
+    d.truncate(n.div_ceil(2));
+    d
+}
+
+/// The best single step in the mean, scanned over every time, against the base noise.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepScan {
+    /// First sample after the best step.
+    pub index: usize,
+    /// The contrast there, SI.
+    pub size: f64,
+    /// 1σ of the contrast under the base noise.
+    pub sigma: f64,
+    /// (size/σ)² at the best time.
+    pub t2: f64,
+    /// Probability that the base noise alone gives a maximum this large.
+    pub p_value: f64,
+    /// Window, samples.
+    pub window: usize,
+    positions: f64,
+    lambda2: f64,
+}
+
+impl StepScan {
+    /// The probability of the scan's maximum reaching `t2` under the base noise (the bound of
+    /// [`step_scan`]).
+    pub fn p_at(&self, t2: f64) -> f64 {
+        let t2 = t2.max(0.0);
+        let tail = erfc((t2 / 2.0).sqrt());
+        let rice = tail
+            + 2.0 * self.positions * self.lambda2.sqrt() / (2.0 * std::f64::consts::PI) * (-0.5 * t2).exp();
+        (self.positions * tail).min(rice).min(1.0)
+    }
+}
+
+/// Longest and shortest step windows, as fractions of the record.
+const STEP_WINDOW_RANGE: (f64, f64) = (1.0 / 60.0, 1.0 / 6.0);
+
+/// The step contrast of [`find_step`] scanned over every time, with the window where the base
+/// noise lets a step show most, tested against that noise.
+///
+/// The contrast D(i) = mean(y[i..i+W]) − mean(y[i−W..i]) has variance 2σ²_A(W·τ0) under any
+/// stationary noise (it *is* the Allan difference at τ = W·τ0), so the window where the fitted
+/// Allan variance is least (the bias-instability floor, between the white and random-walk
+/// slopes) is where a step stands out most; W is searched over record/60 … record/6.
+///
+/// # Formula
+/// ```text
+/// t²(i) = D(i)² / (2σ²_A(Wτ0)),   t² = max over W ≤ i ≤ n − W
+/// λ₂ = var(D(i+1) − D(i)) / var(D) = (4·D_y(Wτ0) − D_y(2Wτ0)) / (W²·2σ²_A(Wτ0))
+/// p = min(M·P(|Z| > t),  P(|Z| > t) + 2M·(√λ₂/2π)·e^{−t²/2}),   M = n − 2W
+/// ```
+/// with D_y the rate's structure function ([`NoiseSpectrum::rate_structure`]): Rice's formula for
+/// the up-crossings of ±t by the standardised scan (λ₂ its second spectral moment per sample²),
+/// capped by the Bonferroni bound over the M times. Both are upper bounds, so the test is
+/// conservative where the scan is rough (white noise: the Brownian scan crosses far less often than
+/// its sample-to-sample roughness claims).
+///
+/// # References
+/// Rice S. O., "Mathematical analysis of random noise", Bell Syst. Tech. J. 24, 1945;
+/// Cramér H. & Leadbetter M. R., Stationary and Related Stochastic Processes, Wiley 1967, §10.
+pub fn step_scan(y: &[f64], noise: &NoiseSpectrum) -> Option<StepScan> {
+    let n = y.len();
+    let tau0 = noise.tau0;
+    let (lo, hi) = (
+        ((n as f64 * STEP_WINDOW_RANGE.0) as usize).max(2),
+        ((n as f64 * STEP_WINDOW_RANGE.1) as usize).max(2),
+    );
+    let w = (0..=40)
+        .map(|k| (lo as f64 * (hi as f64 / lo as f64).powf(k as f64 / 40.0)).round() as usize)
+        .min_by(|&a, &b| noise.avar(a as f64 * tau0).total_cmp(&noise.avar(b as f64 * tau0)))?;
+    if n < 2 * w + 1 {
+        return None;
+    }
+    let var_d = 2.0 * noise.avar(w as f64 * tau0);
+    if !(var_d > 0.0) {
+        return None;
+    }
+    let prefix = prefix_sums(y);
+    let wf = w as f64;
+    let contrast = |i: usize| (prefix[i + w] - prefix[i]) / wf - (prefix[i] - prefix[i - w]) / wf;
+    let (index, size) = (w..=n - w)
+        .map(|i| (i, contrast(i)))
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))?;
+    let wt = wf * tau0;
+    let lambda2 = ((4.0 * noise.rate_structure(wt) - noise.rate_structure(2.0 * wt)) / (wf * wf) / var_d).max(0.0);
+    let mut scan = StepScan {
+        index,
+        size,
+        sigma: var_d.sqrt(),
+        t2: size * size / var_d,
+        p_value: 1.0,
+        window: w,
+        positions: (n - 2 * w + 1) as f64,
+        lambda2,
     };
-    est.strength > threshold
+    scan.p_value = scan.p_at(scan.t2);
+    Some(scan)
+}
+
+/// Prefix sums of `y` with non-finite samples read as 0 (length n + 1).
+fn prefix_sums(y: &[f64]) -> Vec<f64> {
+    let mut prefix = Vec::with_capacity(y.len() + 1);
+    let mut acc = 0.0;
+    prefix.push(0.0);
+    for &v in y {
+        acc += if v.is_finite() { v } else { 0.0 };
+        prefix.push(acc);
+    }
+    prefix
+}
+
+/// Two-sided p-value of a t statistic given as t² (the normal tail, ×`tests` for the best of
+/// that many).
+pub fn p_of_t2(t2: f64, tests: usize) -> f64 {
+    (tests.max(1) as f64 * erfc((t2.max(0.0) / 2.0).sqrt())).min(1.0)
 }
 
 /// Samples per block for windowed statistics: about one second, at least 8 samples.
-fn block_len(tau0: f64) -> usize {
+pub fn block_len(tau0: f64) -> usize {
     ((1.0 / tau0).round() as usize).max(8)
 }
 
@@ -289,13 +672,7 @@ pub fn find_step(y: &[f64]) -> (usize, f64, f64) {
     if n < 2 * w + 1 {
         return (0, 0.0, 0.0);
     }
-    let mut prefix = Vec::with_capacity(n + 1);
-    let mut acc = 0.0;
-    prefix.push(0.0);
-    for &v in y {
-        acc += if v.is_finite() { v } else { 0.0 };
-        prefix.push(acc);
-    }
+    let prefix = prefix_sums(y);
     let wf = w as f64;
     let contrast = |i: usize| (prefix[i + w] - prefix[i]) / wf - (prefix[i] - prefix[i - w]) / wf;
     let (best_i, best_d) = (w..=n - w)

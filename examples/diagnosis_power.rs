@@ -10,7 +10,7 @@
 //! hides one effect at a ladder of strengths and prints the detection rate per point.
 //! Recordings come from the real simulator (`fdavar::sim`) and are laid out as a bag is.
 
-use fdavar::model::effects::REGISTRY;
+use fdavar::model::effects::{Effect, REGISTRY};
 use fdavar::model::record::Recording;
 use fdavar::model::{diagnose, FitOptions, ModelSpec};
 use fdavar::signal::Axis;
@@ -60,9 +60,23 @@ pub fn configs(recordings: usize, seed: u64) -> Vec<(f64, f64, usize, u64)> {
         .collect()
 }
 
-/// The simulator spec: the mix on six axes, the warm-up temperature profile of the test suite,
-/// `extra` effects (YAML `id: { … }`) on their axes and `motion` as true accel motion.
-pub fn spec_yaml(rate: f64, minutes: f64, mix: &Mix, seed: u64, extra: &[(Axis, String)], motion: &[(Axis, String)]) -> String {
+/// The YAML of one effect, `id: { name: value, … }`, from the effect itself.
+pub fn effect_yaml(e: &dyn Effect) -> String {
+    let fields: Vec<String> = e.params().iter().map(|p| format!("{}: {:e}", p.spec.name, p.value)).collect();
+    format!("{}: {{ {} }}", e.kind().id(), fields.join(", "))
+}
+
+/// The simulator spec: the mix on `axes`, the warm-up temperature profile of the test suite,
+/// `extra` effects on their axes and `motion` as true accel motion.
+pub fn spec_yaml(
+    rate: f64,
+    minutes: f64,
+    mix: &Mix,
+    seed: u64,
+    axes: &[Axis],
+    extra: &[(Axis, &dyn Effect)],
+    motion: &[(Axis, &dyn Effect)],
+) -> String {
     let mut y = String::new();
     writeln!(y, "rate_hz: {rate}\nduration_s: {}\nseed: {seed}", minutes * 60.0).unwrap();
     writeln!(
@@ -74,16 +88,16 @@ pub fn spec_yaml(rate: f64, minutes: f64, mix: &Mix, seed: u64, extra: &[(Axis, 
     if !motion.is_empty() {
         y.push_str("vibration:\n");
         for (axis, e) in motion {
-            writeln!(y, "  {}: {{ {e} }}", axis.name()).unwrap();
+            writeln!(y, "  {}: {{ {} }}", axis.name(), effect_yaml(*e)).unwrap();
         }
     }
     y.push_str("axes:\n");
-    for axis in Axis::ALL {
+    for &axis in axes {
         let [n, b, k] = if axis.is_gyro() { mix.gyro } else { mix.accel };
         write!(y, "  {}: {{ N: {{ n: {n:e} }}, B: {{ b: {b:e} }}, K: {{ k: {k:e} }}", axis.name()).unwrap();
         for (a, e) in extra {
             if *a == axis {
-                write!(y, ", {e}").unwrap();
+                write!(y, ", {}", effect_yaml(*e)).unwrap();
             }
         }
         y.push_str(" }\n");
@@ -104,7 +118,7 @@ fn null(recordings: usize, seed: u64) {
     println!("rate,minutes,mix,seed,axis,effect,statistic,threshold,p,significant,seconds");
     for (rate, minutes, m, s) in configs(recordings, seed) {
         let mix = &MIXES[m];
-        let rec = record(&spec_yaml(rate, minutes, mix, s, &[], &[]));
+        let rec = record(&spec_yaml(rate, minutes, mix, s, &Axis::ALL, &[], &[]));
         for axis in Axis::ALL {
             let t = std::time::Instant::now();
             let d = diagnose(&rec.input(axis), &nbk, REGISTRY, &opts).unwrap();

@@ -369,6 +369,21 @@ impl NoiseSpectrum {
             .sum()
     }
 
+    /// One-sided PSD of the rate's first differences, (2 sin πfτ0)²·S(f), at `f` Hz (its limit at
+    /// f = 0: zero but for a random walk, whose differences are white).
+    pub fn diff_psd(&self, f: f64) -> f64 {
+        if f <= 0.0 {
+            let tau0 = self.tau0;
+            return self
+                .parts
+                .iter()
+                .filter(|p| p.0 == NoiseClass::RandomWalkFm)
+                .map(|&(_, a)| 6.0 * a * tau0 * tau0)
+                .sum();
+        }
+        (2.0 * (std::f64::consts::PI * f * self.tau0).sin()).powi(2) * self.rate_psd(f)
+    }
+
     /// Structure function of the rate, E[(y(t+τ) − y(t))²], at τ ≥ τ0.
     pub fn rate_structure(&self, tau: f64) -> f64 {
         let tau0 = self.tau0;
@@ -401,7 +416,7 @@ impl NoiseSpectrum {
         let spectrum: Vec<(f64, f64)> = (0..BINS)
             .map(|k| {
                 let f = (k as f64 + 0.5) / BINS as f64 * f_n;
-                (f, (2.0 * (std::f64::consts::PI * f * self.tau0).sin()).powi(2) * self.rate_psd(f))
+                (f, self.diff_psd(f))
             })
             .collect();
         let total: f64 = spectrum.iter().map(|p| p.1).sum();
@@ -430,24 +445,29 @@ pub struct Regression {
     pub t2: f64,
 }
 
-/// A rate series, tapered, Fourier transformed and weighted by the base noise: generalised least
-/// squares in the frequency domain (Whittle's approximation of the Gaussian likelihood).
+/// The first differences of a rate series, tapered, Fourier transformed and weighted by the base
+/// noise: generalised least squares in the frequency domain (Whittle's approximation of the
+/// Gaussian likelihood).
 ///
 /// Why the frequency domain: the Fourier coefficients of stationary noise are nearly independent
 /// with variance ∝ S(f), so the GLS fit of any driver — a slow temperature or a fast vibration —
-/// costs one transform. Why a taper: flicker and random walk put most of their power at the lowest
-/// frequencies, and a rectangular window leaks it (side lobes ∝ 1/Δk²) into every other bin; the
-/// Hann taper's side lobes fall as 1/Δk⁶. Its price is known: neighbouring coefficients of a
-/// tapered series correlate (ρ₁ = −2/3, ρ₂ = 1/6 for coefficients that were independent), which
-/// the variance below includes. A regression on first differences was rejected: it removes the
-/// low frequencies that carry a slow driver.
+/// costs one transform. Why first differences: a random walk's differences are stationary (its
+/// levels are not, and their transform is dominated by the record's end-to-start jump). Why a
+/// taper: the differences of a finite record still jump at the wrap-around (their sum is the rate's
+/// end minus its start), which a plain transform spreads over every bin as a constant — and the
+/// differences of white noise have almost no power at low frequencies, so that constant buries
+/// them. The Hann taper's three Fourier taps (½, −¼, −¼) cancel a constant across bins exactly.
+/// The price is known: tapered coefficients correlate with their neighbours, which the variance
+/// below includes. Differencing is invertible up to a constant, so the GLS estimate loses nothing
+/// (an ordinary regression on differences would discard a slow driver).
 ///
 /// # Formula
 /// ```text
-/// Y_k = DFT(h·(y − ȳ))_k,  X_k = DFT(h·(x − x̄))_k,   h_j = sin²(π(j+½)/n)
-/// σ_k² = (3/8)·n·S(f_k)/(2τ0),   b_k = X_k/σ_k,   k = 1 … ⌈n/2⌉−1
-/// c = Σ Re(X_k* Y_k)/σ_k² / Σ |b_k|²
-/// var(c) = ½·[Σ|b_k|² + 2ρ₁·Re Σ b_k* b_{k+1} + 2ρ₂·Re Σ b_k* b_{k+2}] / (Σ |b_k|²)²
+/// Y_k = DFT(h·Δy)_k,  X_k likewise for the driver,  h_j = sin²(π(j+½)/n)
+/// s_m = n·S_Δ(f_m)/(2τ0),   S_Δ(f) = (2 sin πfτ0)²·S(f)     (untapered variance)
+/// C_kk = s_k/4 + (s_{k−1} + s_{k+1})/16,  C_k,k+1 = −(s_k + s_{k+1})/8,  C_k,k+2 = s_{k+1}/16
+/// a_k = X_k / C_kk,   c = Σ Re(a_k* Y_k) / Σ Re(a_k* X_k)
+/// var(c) = ½·Re Σ_{k,l} a_k* C_kl a_l / (Σ Re(a_k* X_k))²
 /// ```
 ///
 /// # References
@@ -457,7 +477,8 @@ pub struct Whitened {
     noise: NoiseSpectrum,
     len: usize,
     spectrum: Vec<Complex<f64>>,
-    sd: Vec<f64>,
+    /// s_m of the formula, m = 0 … ⌈n/2⌉.
+    untapered: Vec<f64>,
 }
 
 impl std::fmt::Debug for Whitened {
@@ -466,28 +487,22 @@ impl std::fmt::Debug for Whitened {
     }
 }
 
-/// Correlation of neighbouring Fourier coefficients of a Hann-tapered series (lag 1, lag 2).
-const HANN_RHO: [f64; 2] = [-2.0 / 3.0, 1.0 / 6.0];
-
 impl Whitened {
-    /// Transforms `y` (non-finite samples read as the mean) and weights it by `noise`. `None` for
-    /// fewer than 16 samples or a spectrum without power.
+    /// Transforms the first differences of `y` (non-finite samples read as the mean) and weights
+    /// them by `noise`. `None` for fewer than 16 samples or a spectrum without power.
     pub fn new(y: &[f64], noise: &NoiseSpectrum) -> Option<Self> {
-        let len = y.len();
-        if len < 16 {
+        if y.len() < 17 {
             return None;
         }
-        let spectrum = tapered_dft(y);
-        let sd: Vec<f64> = (0..spectrum.len())
-            .map(|k| {
-                let s = if k == 0 { 0.0 } else { noise.rate_psd(k as f64 / (len as f64 * noise.tau0)) };
-                (0.375 * len as f64 * s / (2.0 * noise.tau0)).sqrt()
-            })
+        let spectrum = tapered_diff_dft(y);
+        let len = y.len() - 1;
+        let untapered: Vec<f64> = (0..=spectrum.len())
+            .map(|m| len as f64 * noise.diff_psd(m as f64 / (len as f64 * noise.tau0)) / (2.0 * noise.tau0))
             .collect();
-        if sd.iter().skip(1).any(|s| !(s.is_finite() && *s > 0.0)) {
+        if untapered.iter().skip(1).any(|s| !(s.is_finite() && *s > 0.0)) {
             return None;
         }
-        Some(Whitened { noise: noise.clone(), len, spectrum, sd })
+        Some(Whitened { noise: noise.clone(), len, spectrum, untapered })
     }
 
     /// The base noise the series is weighted by.
@@ -495,22 +510,44 @@ impl Whitened {
         &self.noise
     }
 
+    /// Covariance of tapered coefficients k and k + d (d = 0, 1, 2).
+    fn cov(&self, k: usize, d: usize) -> f64 {
+        let s = |m: usize| self.untapered.get(m).copied().unwrap_or(0.0);
+        match d {
+            0 => s(k) / 4.0 + (s(k - 1) + s(k + 1)) / 16.0,
+            1 => -(s(k) + s(k + 1)) / 8.0,
+            2 => s(k + 1) / 16.0,
+            _ => 0.0,
+        }
+    }
+
     /// GLS regression of the rate on a driver `x` (one value per rate sample).
     pub fn regress(&self, x: &[f64]) -> Option<Regression> {
-        if x.len() != self.len {
+        if x.len() != self.len + 1 {
             return None;
         }
-        let xs = tapered_dft(x);
-        let b: Vec<Complex<f64>> = (1..xs.len()).map(|k| xs[k] / self.sd[k]).collect();
-        let num: f64 = (1..xs.len())
-            .map(|k| (xs[k].conj() * self.spectrum[k]).re / (self.sd[k] * self.sd[k]))
-            .sum();
-        let den: f64 = b.iter().map(|v| v.norm_sqr()).sum();
+        let xs = tapered_diff_dft(x);
+        let bins = xs.len();
+        let a: Vec<Complex<f64>> = (0..bins)
+            .map(|k| if k == 0 { Complex::new(0.0, 0.0) } else { xs[k] / self.cov(k, 0) })
+            .collect();
+        let num: f64 = (1..bins).map(|k| (a[k].conj() * self.spectrum[k]).re).sum();
+        let den: f64 = (1..bins).map(|k| (a[k].conj() * xs[k]).re).sum();
         if !(den > 0.0) {
             return None;
         }
-        let lag = |d: usize| b.iter().zip(b.iter().skip(d)).map(|(p, q)| (p.conj() * q).re).sum::<f64>();
-        let var_num = 0.5 * (den + 2.0 * HANN_RHO[0] * lag(1) + 2.0 * HANN_RHO[1] * lag(2));
+        let var_num = 0.5
+            * (1..bins)
+                .map(|k| {
+                    let mut v = a[k].norm_sqr() * self.cov(k, 0);
+                    for d in 1..=2 {
+                        if k + d < bins {
+                            v += 2.0 * (a[k].conj() * a[k + d]).re * self.cov(k, d);
+                        }
+                    }
+                    v
+                })
+                .sum::<f64>();
         if !(var_num > 0.0) {
             return None;
         }
@@ -520,16 +557,20 @@ impl Whitened {
     }
 }
 
-/// DFT of `y` − mean, Hann-tapered (non-finite samples read as the mean), bins 0 … ⌈n/2⌉−1.
-fn tapered_dft(y: &[f64]) -> Vec<Complex<f64>> {
+/// DFT of the first differences of `y`, Hann-tapered (non-finite samples read as the mean of `y`),
+/// bins 0 … ⌈(n−1)/2⌉−1. Their mean is kept: it is the end-minus-start jump that the taper cancels
+/// (removing it would leave −¼ of the jump in bin 1).
+fn tapered_diff_dft(y: &[f64]) -> Vec<Complex<f64>> {
     let mean = finite_mean(y);
-    let n = y.len();
-    let mut d: Vec<Complex<f64>> = y
+    let clean = |v: f64| if v.is_finite() { v } else { mean };
+    let diffs: Vec<f64> = y.windows(2).map(|w| clean(w[1]) - clean(w[0])).collect();
+    let n = diffs.len();
+    let mut d: Vec<Complex<f64>> = diffs
         .iter()
         .enumerate()
         .map(|(j, &v)| {
             let h = (std::f64::consts::PI * (j as f64 + 0.5) / n as f64).sin().powi(2);
-            Complex::new(if v.is_finite() { (v - mean) * h } else { 0.0 }, 0.0)
+            Complex::new(v * h, 0.0)
         })
         .collect();
     FftPlanner::new().plan_fft_forward(n).process(&mut d);
@@ -571,6 +612,19 @@ impl StepScan {
 /// Longest and shortest step windows, as fractions of the record.
 const STEP_WINDOW_RANGE: (f64, f64) = (1.0 / 60.0, 1.0 / 6.0);
 
+/// The window of [`step_scan`] for `n` samples: where the Allan variance of `noise` is least,
+/// between record/60 and record/6 (40 candidates, log-spaced).
+pub fn step_window(n: usize, noise: &NoiseSpectrum) -> usize {
+    let (lo, hi) = (
+        ((n as f64 * STEP_WINDOW_RANGE.0) as usize).max(2),
+        ((n as f64 * STEP_WINDOW_RANGE.1) as usize).max(2),
+    );
+    (0..=40)
+        .map(|k| (lo as f64 * (hi as f64 / lo as f64).powf(k as f64 / 40.0)).round() as usize)
+        .min_by(|&a, &b| noise.avar(a as f64 * noise.tau0).total_cmp(&noise.avar(b as f64 * noise.tau0)))
+        .unwrap_or(lo)
+}
+
 /// The step contrast of [`find_step`] scanned over every time, with the window where the base
 /// noise lets a step show most, tested against that noise.
 ///
@@ -597,13 +651,7 @@ const STEP_WINDOW_RANGE: (f64, f64) = (1.0 / 60.0, 1.0 / 6.0);
 pub fn step_scan(y: &[f64], noise: &NoiseSpectrum) -> Option<StepScan> {
     let n = y.len();
     let tau0 = noise.tau0;
-    let (lo, hi) = (
-        ((n as f64 * STEP_WINDOW_RANGE.0) as usize).max(2),
-        ((n as f64 * STEP_WINDOW_RANGE.1) as usize).max(2),
-    );
-    let w = (0..=40)
-        .map(|k| (lo as f64 * (hi as f64 / lo as f64).powf(k as f64 / 40.0)).round() as usize)
-        .min_by(|&a, &b| noise.avar(a as f64 * tau0).total_cmp(&noise.avar(b as f64 * tau0)))?;
+    let w = step_window(n, noise);
     if n < 2 * w + 1 {
         return None;
     }
@@ -808,6 +856,74 @@ mod tests {
         let b = find_burst(&y, 0.01);
         assert!((b.start as i64 - 30_000).abs() <= 100 && (b.end as i64 - 50_000).abs() <= 100, "{b:?}");
         assert!((b.factor - 3.0).abs() < 0.1, "{b:?}");
+    }
+
+    /// White rate noise plus a random walk (K²τ/3 = N²/τ at τ = 5 s), as a fitted model would give.
+    fn coloured(n: usize, seed: u64, tau0: f64) -> (Vec<f64>, NoiseSpectrum) {
+        let (nw, k) = (1e-3, 3.5e-4);
+        let w = noise(n, seed);
+        let e = noise(n, seed + 1000);
+        let mut walk = 0.0;
+        let y = w
+            .iter()
+            .zip(&e)
+            .map(|(a, b)| {
+                walk += k * tau0.sqrt() * b;
+                nw / tau0.sqrt() * a + walk
+            })
+            .collect();
+        let taus = [1.0];
+        let spectrum = NoiseSpectrum::from_curves(
+            tau0,
+            &taus,
+            [(NoiseClass::WhiteFm, &[nw * nw][..]), (NoiseClass::RandomWalkFm, &[k * k / 3.0][..])],
+        );
+        (y, spectrum)
+    }
+
+    #[test]
+    fn regression_on_a_slow_driver_is_calibrated_under_a_random_walk() {
+        // A warm-up: the spurious regression a white-noise test falls for. Under the fitted
+        // coloured noise t² must be χ²₁: mean 1 (sd of the mean of 200: 0.1), 1 % above 6.63.
+        let (tau0, n) = (0.01, 30_000);
+        let x: Vec<f64> = (0..n).map(|i| 8.0 * (1.0 - (-(i as f64) * tau0 / 100.0).exp())).collect();
+        let t2: Vec<f64> = (0..200u64)
+            .map(|s| {
+                let (y, spectrum) = coloured(n, 10 + s, tau0);
+                Whitened::new(&y, &spectrum).unwrap().regress(&x).unwrap().t2
+            })
+            .collect();
+        let mean = t2.iter().sum::<f64>() / t2.len() as f64;
+        let above = t2.iter().filter(|&&v| v > 6.63).count();
+        assert!((0.7..=1.35).contains(&mean), "mean t² {mean}");
+        assert!(above <= 8, "{above} of 200 above the 1 % point");
+        // The OLS t² of the same data: the spurious regression.
+        let (y, _) = coloured(n, 10, tau0);
+        assert!(regress(&y, &x).2 > 50.0, "{}", regress(&y, &x).2);
+    }
+
+    #[test]
+    fn regression_recovers_a_coefficient_within_its_sigma() {
+        let (tau0, n) = (0.01, 30_000);
+        let x: Vec<f64> = (0..n).map(|i| (i as f64 * tau0 * 0.3).sin()).collect();
+        let (mut y, spectrum) = coloured(n, 3, tau0);
+        y.iter_mut().zip(&x).for_each(|(a, b)| *a += 2e-3 * b);
+        let r = Whitened::new(&y, &spectrum).unwrap().regress(&x).unwrap();
+        assert!((r.coefficient - 2e-3).abs() < 4.0 * r.sigma, "{r:?}");
+        assert!(r.t2 > 100.0, "{r:?}");
+    }
+
+    #[test]
+    fn step_scan_finds_a_step_and_stays_quiet_without_one() {
+        let (tau0, n) = (0.01, 60_000);
+        let (mut y, spectrum) = coloured(n, 5, tau0);
+        let quiet = step_scan(&y, &spectrum).unwrap();
+        assert!(quiet.p_value > 0.01, "{quiet:?}");
+        let size = 8.0 * quiet.sigma;
+        y.iter_mut().skip(25_000).for_each(|v| *v += size);
+        let s = step_scan(&y, &spectrum).unwrap();
+        assert!(s.p_value < 1e-6 && (s.index as i64 - 25_000).abs() < s.window as i64 / 2, "{s:?}");
+        assert!((s.size - size).abs() < 2.0 * s.sigma, "{s:?}");
     }
 
     #[test]

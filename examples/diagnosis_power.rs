@@ -1,148 +1,174 @@
 //! Calibration and power curves of the diagnosis (issue 10): how often a clean axis gets a
-//! suggestion, and how often a hidden effect of a given strength is found.
+//! suggestion, and how often a hidden effect of a given strength is named.
 //!
 //! ```text
 //! cargo run --release --no-default-features --example diagnosis_power -- null RECORDINGS [SEED]
-//! cargo run --release --no-default-features --example diagnosis_power -- power PER_POINT [SEED]
+//! cargo run --release --no-default-features --example diagnosis_power -- power PER_POINT [SEED] [PNG]
 //! ```
-//! `null` simulates clean six-axis recordings over the rates, lengths and N/B/K mixes below and
-//! prints every candidate the diagnosis weighed (CSV on stdout, a summary on stderr). `power`
-//! hides one effect at a ladder of strengths and prints the detection rate per point.
-//! Recordings come from the real simulator (`fdavar::sim`) and are laid out as a bag is.
+//! `null` simulates clean six-axis recordings over 100–400 Hz, 20 min–2 h and the N/B/K mixes of
+//! `tests/power_common` and prints every candidate the diagnosis weighed (CSV on stdout; the clean
+//! axes that got a suggestion on stderr). `power` hides each effect at a ladder of strengths in
+//! PER_POINT recordings per point (100/200/400 Hz, 20 and 60 min, every mix) and prints a markdown
+//! table; with PNG it also draws the curves. Runs on two threads.
 
-use fdavar::model::effects::{Effect, REGISTRY};
-use fdavar::model::record::Recording;
+#[path = "../tests/power_common/mod.rs"]
+mod power_common;
+
+use fdavar::model::effects::REGISTRY;
 use fdavar::model::{diagnose, FitOptions, ModelSpec};
 use fdavar::signal::Axis;
-use std::fmt::Write;
+use plotters::prelude::*;
+use power_common::{families, par_map, power_point, record, settings, spec_yaml, Scale};
 
-/// A sensor's base noise: name, gyro (N, B, K), accel (N, B, K), SI.
-pub struct Mix {
-    pub name: &'static str,
-    pub gyro: [f64; 3],
-    pub accel: [f64; 3],
-}
-
-/// N and K from /work/shared/reference/imu_noise_params.md; B from the datasheets' bias
-/// instability where the table gives one (D435i 1.8–4.9 °/h, VN-100 < 10 °/h and 0.04 mg), else a
-/// value in the same range (2–10 °/h, 0.01–0.05 mg).
-pub const MIXES: &[Mix] = &[
-    Mix { name: "test", gyro: [1.5e-4, 5.0e-5, 2.7e-6], accel: [2.0e-3, 4.0e-4, 1.2e-4] },
-    Mix { name: "d435i", gyro: [1.52e-4, 1.45e-5, 2.66e-6], accel: [6.31e-3, 3.9e-4, 1.17e-4] },
-    Mix { name: "euroc", gyro: [1.6968e-4, 1.0e-5, 1.9393e-5], accel: [2.0e-3, 1.0e-4, 3.0e-3] },
-    Mix { name: "tumvi", gyro: [1.6e-4, 1.0e-5, 2.2e-5], accel: [2.8e-3, 1.0e-4, 8.6e-4] },
-    Mix { name: "vn100", gyro: [6.11e-5, 2.0e-5, 5.0e-7], accel: [1.37e-3, 3.9e-4, 5.0e-5] },
-    Mix { name: "mti100", gyro: [1.75e-4, 2.0e-5, 1.0e-6], accel: [5.9e-4, 1.0e-4, 1.0e-5] },
-    Mix { name: "adis16405", gyro: [8.7e-4, 5.0e-5, 1.0e-5], accel: [4.9e-3, 5.0e-4, 1.0e-4] },
+/// Rates (Hz) and lengths (min) of the null calibration: short records three times as often as
+/// the long ones (cost grows with rate × length).
+const NULL_GRID: &[(f64, f64)] = &[
+    (100.0, 20.0),
+    (200.0, 20.0),
+    (400.0, 20.0),
+    (100.0, 60.0),
+    (200.0, 60.0),
+    (100.0, 120.0),
+    (100.0, 20.0),
+    (200.0, 20.0),
+    (400.0, 20.0),
+    (400.0, 60.0),
+    (200.0, 120.0),
+    (400.0, 120.0),
+    (100.0, 20.0),
+    (200.0, 20.0),
+    (400.0, 20.0),
+    (100.0, 60.0),
 ];
 
-/// Rates (Hz) and lengths (min) of the calibration; the cost grows with rate × length, so the
-/// longest records are drawn less often (see [`configs`]).
-pub fn configs(recordings: usize, seed: u64) -> Vec<(f64, f64, usize, u64)> {
-    let grid = [
-        (100.0, 20.0),
-        (200.0, 20.0),
-        (400.0, 20.0),
-        (100.0, 60.0),
-        (200.0, 60.0),
-        (100.0, 120.0),
-        (400.0, 60.0),
-        (200.0, 120.0),
-        (400.0, 120.0),
-    ];
-    (0..recordings)
-        .map(|i| {
-            // Short records three times as often as long ones.
-            let g = [0, 1, 2, 0, 1, 2, 3, 4, 5, 0, 1, 2, 6, 7, 8, 3][i % 16];
-            let (rate, minutes) = grid[g];
-            (rate, minutes, (i / 16 + i) % MIXES.len(), seed + i as u64)
-        })
-        .collect()
-}
+/// Rates and lengths of the power curves.
+const POWER_GRID: &[(f64, f64)] = &[(100.0, 20.0), (200.0, 20.0), (400.0, 20.0), (100.0, 60.0)];
 
-/// The YAML of one effect, `id: { name: value, … }`, from the effect itself.
-pub fn effect_yaml(e: &dyn Effect) -> String {
-    let fields: Vec<String> = e.params().iter().map(|p| format!("{}: {:e}", p.spec.name, p.value)).collect();
-    format!("{}: {{ {} }}", e.kind().id(), fields.join(", "))
-}
-
-/// The simulator spec: the mix on `axes`, the warm-up temperature profile of the test suite,
-/// `extra` effects on their axes and `motion` as true accel motion.
-pub fn spec_yaml(
-    rate: f64,
-    minutes: f64,
-    mix: &Mix,
-    seed: u64,
-    axes: &[Axis],
-    extra: &[(Axis, &dyn Effect)],
-    motion: &[(Axis, &dyn Effect)],
-) -> String {
-    let mut y = String::new();
-    writeln!(y, "rate_hz: {rate}\nduration_s: {}\nseed: {seed}", minutes * 60.0).unwrap();
-    writeln!(
-        y,
-        "temperature: {{ start_c: 20.0, end_c: 28.0, time_constant_s: 600, cycle_amplitude_c: 0.5, cycle_period_s: {}, rate_hz: 10 }}",
-        2.0 * std::f64::consts::PI * 300.0
-    )
-    .unwrap();
-    if !motion.is_empty() {
-        y.push_str("vibration:\n");
-        for (axis, e) in motion {
-            writeln!(y, "  {}: {{ {} }}", axis.name(), effect_yaml(*e)).unwrap();
-        }
-    }
-    y.push_str("axes:\n");
-    for &axis in axes {
-        let [n, b, k] = if axis.is_gyro() { mix.gyro } else { mix.accel };
-        write!(y, "  {}: {{ N: {{ n: {n:e} }}, B: {{ b: {b:e} }}, K: {{ k: {k:e} }}", axis.name()).unwrap();
-        for (a, e) in extra {
-            if *a == axis {
-                write!(y, ", {}", effect_yaml(*e)).unwrap();
-            }
-        }
-        y.push_str(" }\n");
-    }
-    y
-}
-
-pub fn record(yaml: &str) -> Recording {
-    let spec = fdavar::sim::SimSpec::from_yaml(yaml).unwrap_or_else(|e| panic!("{e}\n{yaml}"));
-    let sim = fdavar::sim::simulate(&spec).unwrap_or_else(|e| panic!("{e}\n{yaml}"));
-    Recording::from_samples(&sim.imu, &sim.temperature).unwrap()
-}
+/// Strengths per scale: AVAR peak ratio, σ of the test.
+const LADDER: [&[f64]; 2] = [&[0.1, 0.2, 0.35, 0.5, 1.0, 2.0], &[3.0, 4.0, 5.0, 6.0, 8.0]];
 
 fn null(recordings: usize, seed: u64) {
     let nbk = ModelSpec::parse_in("N,B,K", REGISTRY).unwrap();
-    let opts = FitOptions::default();
-    let (mut axes, mut flagged) = (0usize, 0usize);
-    println!("rate,minutes,mix,seed,axis,effect,statistic,threshold,p,significant,seconds");
-    for (rate, minutes, m, s) in configs(recordings, seed) {
-        let mix = &MIXES[m];
-        let rec = record(&spec_yaml(rate, minutes, mix, s, &Axis::ALL, &[], &[]));
+    let set = settings(recordings, NULL_GRID, seed);
+    println!("rate,minutes,mix,seed,axis,effect,statistic,threshold,p,significant");
+    let rows = par_map(&set, 2, |s| {
+        let rec = record(&spec_yaml(s, &Axis::ALL, &[], &[]));
+        let mut lines = Vec::new();
+        let mut flagged = Vec::new();
         for axis in Axis::ALL {
-            let t = std::time::Instant::now();
-            let d = diagnose(&rec.input(axis), &nbk, REGISTRY, &opts).unwrap();
-            let secs = t.elapsed().as_secs_f64();
-            axes += 1;
+            let d = diagnose(&rec.input(axis), &nbk, REGISTRY, &FitOptions::default()).unwrap();
             if !d.suggestions.is_empty() {
-                flagged += 1;
-                eprintln!("{rate} Hz {minutes} min {} seed {s} {axis}: {:?}", mix.name,
-                    d.suggestions.iter().map(|x| x.effect.as_str()).collect::<Vec<_>>());
+                let names: Vec<&str> = d.suggestions.iter().map(|x| x.effect.as_str()).collect();
+                flagged.push(format!("{} Hz {} min {} seed {} {axis}: {names:?}", s.rate, s.minutes, s.mix.name, s.seed));
             }
             for w in &d.weighed {
-                println!(
-                    "{rate},{minutes},{},{s},{axis},{},{:.4},{:.4},{},{},{secs:.3}",
-                    mix.name,
+                lines.push(format!(
+                    "{},{},{},{},{axis},{},{:.4},{:.4},{},{}",
+                    s.rate,
+                    s.minutes,
+                    s.mix.name,
+                    s.seed,
                     w.effect,
                     w.statistic,
                     w.threshold,
                     w.p_value.map_or(String::new(), |p| format!("{p:.3e}")),
                     w.significant
-                );
+                ));
             }
         }
+        (lines, flagged)
+    });
+    let mut axes = 0;
+    let mut flagged = 0;
+    for (lines, f) in rows {
+        axes += 6;
+        flagged += f.len();
+        lines.iter().for_each(|l| println!("{l}"));
+        f.iter().for_each(|l| eprintln!("{l}"));
     }
     eprintln!("clean axes with a suggestion: {flagged}/{axes}");
+}
+
+fn power(per_point: usize, seed: u64, png: Option<&str>) {
+    let set = settings(per_point, POWER_GRID, seed);
+    let mut curves: Vec<(&str, Scale, Vec<(f64, f64)>)> = Vec::new();
+    println!("| effect | strength | detected | parameters within tolerance (of detected) | named instead |");
+    println!("|---|---|---|---|---|");
+    for family in families() {
+        let ladder = LADDER[usize::from(family.scale == Scale::TestSigma)];
+        let mut curve = Vec::new();
+        for &strength in ladder {
+            let out = power_point(&family, strength, &set, 2);
+            let detected = out.iter().filter(|o| o.detected).count();
+            let ok = out.iter().filter(|o| o.params_ok).count();
+            let mut instead: Vec<String> = out.iter().filter_map(|o| o.instead.clone()).collect();
+            instead.sort();
+            instead.dedup();
+            let unit = if family.scale == Scale::AvarPeak { "× base AVAR" } else { "σ" };
+            println!(
+                "| {} | {strength} {unit} | {detected}/{} | {ok}/{detected} | {} |",
+                family.name,
+                out.len(),
+                instead.join(", ")
+            );
+            curve.push((strength, detected as f64 / out.len() as f64));
+        }
+        curves.push((family.name, family.scale, curve));
+    }
+    if let Some(path) = png {
+        draw(path, &curves).unwrap();
+    }
+}
+
+/// Detection rate vs strength: spectral effects left (AVAR peak ratio, log axis), time-domain
+/// right (σ).
+fn draw(path: &str, curves: &[(&str, Scale, Vec<(f64, f64)>)]) -> Result<(), Box<dyn std::error::Error>> {
+    let root = BitMapBackend::new(path, (1200, 520)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let (left, right) = root.split_horizontally(600);
+    for (area, scale) in [(left, Scale::AvarPeak), (right, Scale::TestSigma)] {
+        let log = scale == Scale::AvarPeak;
+        let (title, x_label, range) = if log {
+            ("Spectral effects", "AVAR peak ratio (effect / base N,B,K), log", (-1.1f64, 0.4f64))
+        } else {
+            ("Time-domain effects", "strength: σ of the test under the base noise", (2.5, 8.5))
+        };
+        let mut chart = ChartBuilder::on(&area)
+            .caption(title, ("sans-serif", 22))
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(55)
+            .build_cartesian_2d(range.0..range.1, 0f64..1.02f64)?;
+        let format = |x: &f64| if log { format!("{:.2}", 10f64.powf(*x)) } else { format!("{x:.0}") };
+        chart
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc("hidden effect named first")
+            .x_label_formatter(&format)
+            .draw()?;
+        let mine: Vec<_> = curves.iter().filter(|c| c.1 == scale).collect();
+        for (i, (name, _, pts)) in mine.iter().enumerate() {
+            let color = Palette99::pick(i).to_rgba();
+            let pts: Vec<(f64, f64)> = pts.iter().map(|&(x, y)| (if log { x.log10() } else { x }, y)).collect();
+            chart
+                .draw_series(LineSeries::new(pts.iter().copied(), color.stroke_width(2)))?
+                .label(*name)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
+            chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled())))?;
+        }
+        chart
+            .draw_series(LineSeries::new(vec![(range.0, 0.9), (range.1, 0.9)], BLACK.mix(0.4)))?
+            .label("90 %")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.mix(0.4)));
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerRight)
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()?;
+    }
+    root.present()?;
+    Ok(())
 }
 
 fn main() {
@@ -151,6 +177,7 @@ fn main() {
     let seed = args.get(3).and_then(|a| a.parse().ok()).unwrap_or(1000);
     match args.get(1).map(String::as_str) {
         Some("null") => null(count, seed),
-        _ => eprintln!("usage: diagnosis_power null|power COUNT [SEED]"),
+        Some("power") => power(count, seed, args.get(4).map(String::as_str)),
+        _ => eprintln!("usage: diagnosis_power null|power COUNT [SEED] [PNG]"),
     }
 }

@@ -71,7 +71,7 @@ pub const DRIVER_PREFERENCE: f64 = 1.5;
 pub fn burst_threshold(blocks: usize) -> f64 {
     BURST_BASE + BURST_PER_LN * (blocks.max(2) as f64).ln()
 }
-const BURST_BASE: f64 = 4.0;
+const BURST_BASE: f64 = 5.0;
 const BURST_PER_LN: f64 = 1.5;
 
 /// One suggested effect with what it buys.
@@ -401,8 +401,12 @@ fn cleaned(input: &AxisInput<'_>, fit: &FittedModel, registry: &[&'static dyn Ef
 /// Δ = (Σ rᵢ(before)² − Σ rᵢ(after)²) / κ,   κ = K / K_eff,   K_eff = (tr R)² / tr(R²)
 /// significant:  Δ > SPECTRAL_PENALTY + SHAPE_PENALTY·(shape parameters of the effect)
 /// ```
-/// with the EDF and the τ correlation R ([`tau_correlation`], lengths from the noise mix) of the
-/// model *with* the effect, the same for both sides so that Δ compares residuals only. K_eff is
+/// with, at each τ, the smaller EDF and the longer correlation length of the two models (R:
+/// [`tau_correlation`]), the same for both sides so that Δ compares residuals only. Why the
+/// smaller EDF: an effect without a τ-slope (a Gauss–Markov bias, a sinusoid) gets the white-noise
+/// EDF ([`NoiseClass::from_slope`]), far larger than flicker's at long τ, and weighed with it the
+/// scatter of a clean record's last decade (a flicker realisation falling away) passed for a
+/// Gauss–Markov bump (Δ up to 39 on clean 1 h axes). K_eff is
 /// the participation ratio of R's eigenvalues: how many independent points K correlated ones are
 /// worth (about a third of them at ten τ per decade). Why not the generalised χ² rᵀR⁻¹r: R is
 /// nearly singular (neighbouring estimates correlate at 0.9 and more), so R⁻¹ multiplies any rough
@@ -432,27 +436,31 @@ fn chi2_gain<F: Scored>(before: &F, after: &F, registry: &[&'static dyn EffectKi
     if pb.len() != pa.len() || pa.is_empty() || pb.iter().zip(pa).any(|(b, a)| b.m != a.m) {
         return None;
     }
-    let curves = after.spectral_curves(registry);
-    let length: Vec<f64> = (0..pa.len())
-        .map(|i| {
-            let total: f64 = curves.iter().map(|(_, v)| v[i]).sum();
-            let weighted: f64 = curves.iter().map(|(c, v)| v[i] * c.correlation_length()).sum();
-            if total > 0.0 {
-                weighted / total
-            } else {
-                NoiseClass::WhiteFm.correlation_length()
-            }
-        })
-        .collect();
+    let lengths = |fit: &F| -> Vec<f64> {
+        let curves = fit.spectral_curves(registry);
+        (0..pa.len())
+            .map(|i| {
+                let total: f64 = curves.iter().map(|(_, v)| v[i]).sum();
+                let weighted: f64 = curves.iter().map(|(c, v)| v[i] * c.correlation_length()).sum();
+                if total > 0.0 {
+                    weighted / total
+                } else {
+                    NoiseClass::WhiteFm.correlation_length()
+                }
+            })
+            .collect()
+    };
+    let length: Vec<f64> = lengths(before).into_iter().zip(lengths(after)).map(|(b, a)| b.max(a)).collect();
     let taus: Vec<f64> = pa.iter().map(|p| p.tau).collect();
     let r = tau_correlation(&taus, &length);
     let k = pa.len() as f64;
     let k_eff = r.trace().powi(2) / r.norm_squared();
+    let edf: Vec<f64> = pb.iter().zip(pa).map(|(b, a)| b.edf.min(a.edf)).collect();
     let chi2 = |points: &[FitPoint]| -> Option<f64> {
         let sum = points
             .iter()
-            .zip(pa)
-            .map(|(p, a)| (p.measured / p.model).ln().powi(2) * 0.5 * a.edf)
+            .zip(&edf)
+            .map(|(p, e)| (p.measured / p.model).ln().powi(2) * 0.5 * e)
             .sum::<f64>();
         sum.is_finite().then_some(sum)
     };

@@ -12,6 +12,9 @@
 
 use crate::model::effects::EffectKind;
 use crate::model::fit::{AxisInput, FitError};
+use crate::model::measure::NoiseClass;
+use rustfft::{num_complex::Complex, FftPlanner};
+use statrs::function::erf::erfc;
 
 /// What an estimator found: values in the effect's schema order, 1σ where known.
 #[derive(Debug, Clone, PartialEq)]
@@ -24,6 +27,19 @@ pub struct Estimate {
     pub is_event: bool,
     /// A log-likelihood-ratio-like strength of the detection (≥ 0), for the diagnosis.
     pub strength: f64,
+    /// What the effect changes, which decides how the diagnosis tests it against the base noise.
+    pub signature: Signature,
+}
+
+/// What a time-domain effect changes in the rate, which decides its test (see [`Whitened`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Signature {
+    /// A bias that follows a measured driver (a regression on it).
+    Driven,
+    /// A step in the mean at one time (a scan over the time).
+    MeanStep,
+    /// A span with a louder white level (a scan over spans of block variances).
+    WhiteLevel,
 }
 
 const ORDER: [&str; 4] = ["temperature", "g_sensitivity", "bias_step", "noise_burst"];
@@ -65,7 +81,13 @@ pub fn estimate(
             let t = input.temperature_c.ok_or_else(|| missing("a temperature topic"))?;
             let (c, s, _) = regress(series, t);
             let (_, _, strength) = regress_slow(series, t);
-            Ok(Estimate { values: vec![c], sigmas: vec![Some(s)], is_event: false, strength })
+            Ok(Estimate {
+                values: vec![c],
+                sigmas: vec![Some(s)],
+                is_event: false,
+                strength,
+                signature: Signature::Driven,
+            })
         }
         "g_sensitivity" => {
             let acc = input
@@ -82,6 +104,7 @@ pub fn estimate(
                 sigmas: vec![None, Some(s)],
                 is_event: false,
                 strength,
+                signature: Signature::Driven,
             })
         }
         "bias_step" => {
@@ -91,6 +114,7 @@ pub fn estimate(
                 sigmas: vec![None, None],
                 is_event: true,
                 strength,
+                signature: Signature::MeanStep,
             })
         }
         "noise_burst" => {
@@ -100,6 +124,7 @@ pub fn estimate(
                 sigmas: vec![None, None, None],
                 is_event: true,
                 strength: b.strength,
+                signature: Signature::WhiteLevel,
             })
         }
         _ => Err(FitError::NoEstimator(kind.id())),
@@ -108,7 +133,11 @@ pub fn estimate(
 
 /// Removes an estimated effect from `series`.
 pub fn remove(kind: &dyn EffectKind, est: &Estimate, input: &AxisInput<'_>, series: &mut [f64]) {
-    let v = &est.values;
+    remove_values(kind, &est.values, input, series);
+}
+
+/// Removes an effect given by its values in schema order (a fitted term's) from `series`.
+pub fn remove_values(kind: &dyn EffectKind, v: &[f64], input: &AxisInput<'_>, series: &mut [f64]) {
     match kind.id() {
         "temperature" => {
             if let Some(t) = input.temperature_c {
@@ -253,23 +282,425 @@ pub fn regress_slow(y: &[f64], x: &[f64]) -> (f64, f64, f64) {
     (c, se_eff, strength)
 }
 
-/// Whether a time-domain estimate is significant on its own evidence.
+/// The fitted base noise of an axis as the time-domain tests see it: a sum of power-law terms.
 ///
-/// Thresholds on the estimators' statistics: a regression's t² above 25 (5σ), a step contrast
-/// above 40 times its robust variance (6.3σ: the maximum over ~n/W positions of a χ²₁ stays far
-/// below), a burst's likelihood ratio above 30.
-pub fn is_significant(kind: &dyn EffectKind, est: &Estimate) -> bool {
-    let threshold = match kind.id() {
-        "temperature" | "g_sensitivity" => 25.0,
-        "bias_step" => 40.0,
-        "noise_burst" => 30.0,
-        _ => return false,
+/// Why: a step, a temperature drift or a g-sensitivity is judged by how unlikely its estimate
+/// would be under the noise the axis has — white rate noise, flicker and random walk — not under
+/// white noise alone. With flicker and random walk a record wanders, and a white-noise test takes
+/// the wander for a step or for a regression on any slow driver (a "spurious regression").
+///
+/// Each term is one [`NoiseClass`] with a coefficient `a` read from its Allan variance curve:
+///
+/// # Formula
+/// ```text
+/// class      σ²(τ)     rate PSD S(f), one-sided              rate structure D(τ) = E[(y(t+τ) − y(t))²]
+/// white PM   3a/τ²     2a·τ0·(2 sin πfτ0)²/τ0²               4a/τ0²
+/// white FM   a/τ       2a                                     2a/τ0
+/// flicker    a         h/f,  h = a/(2 ln 2)                   2h·(ln(πτ/τ0) + γ)
+/// RW FM      a·τ       3a/(2π²f²)                             3a·τ
+/// ```
+/// (NIST SP 1065 Table 6: σ² = h₀/(2τ), 2 ln2·h₋₁, (2π²/3)·h₋₂·τ; the flicker structure function
+/// with the Nyquist frequency 1/(2τ0) as its upper cutoff, γ = 0.5772). `a` is the largest value
+/// the curve implies over its τ grid: exact for a power law, and for a term that is none (a
+/// Gauss–Markov bias counts as white FM, its long-τ asymptote) never below the term's power at
+/// any τ, so the tests stay conservative.
+///
+/// # References
+/// Riley W. J., NIST SP 1065 (2008), §5.2 and Table 6; IEEE Std 952-1997 Annex C.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NoiseSpectrum {
+    tau0: f64,
+    parts: Vec<(NoiseClass, f64)>,
+}
+
+impl NoiseSpectrum {
+    /// The spectrum of terms given as (class, σ²(τ) on `taus`), for samples `tau0` apart.
+    pub fn from_curves<'a>(
+        tau0: f64,
+        taus: &[f64],
+        terms: impl IntoIterator<Item = (NoiseClass, &'a [f64])>,
+    ) -> Self {
+        let parts = terms
+            .into_iter()
+            .map(|(class, curve)| {
+                let a = taus
+                    .iter()
+                    .zip(curve)
+                    .map(|(&t, &v)| match class {
+                        NoiseClass::WhitePm => v * t * t / 3.0,
+                        NoiseClass::WhiteFm => v * t,
+                        NoiseClass::FlickerFm => v,
+                        NoiseClass::RandomWalkFm => v / t,
+                    })
+                    .filter(|a| a.is_finite())
+                    .fold(0.0, f64::max);
+                (class, a)
+            })
+            .filter(|&(_, a)| a > 0.0)
+            .collect();
+        NoiseSpectrum { tau0, parts }
+    }
+
+    /// Allan variance at τ seconds.
+    pub fn avar(&self, tau: f64) -> f64 {
+        self.parts
+            .iter()
+            .map(|&(class, a)| match class {
+                NoiseClass::WhitePm => 3.0 * a / (tau * tau),
+                NoiseClass::WhiteFm => a / tau,
+                NoiseClass::FlickerFm => a,
+                NoiseClass::RandomWalkFm => a * tau,
+            })
+            .sum()
+    }
+
+    /// One-sided PSD of the rate at `f` Hz (0 < f ≤ 1/(2τ0)).
+    pub fn rate_psd(&self, f: f64) -> f64 {
+        let tau0 = self.tau0;
+        let pi = std::f64::consts::PI;
+        self.parts
+            .iter()
+            .map(|&(class, a)| match class {
+                NoiseClass::WhitePm => 2.0 * a * (2.0 * (pi * f * tau0).sin()).powi(2) / tau0,
+                NoiseClass::WhiteFm => 2.0 * a,
+                NoiseClass::FlickerFm => a / (2.0 * std::f64::consts::LN_2) / f,
+                NoiseClass::RandomWalkFm => 3.0 * a / (2.0 * pi * pi) / (f * f),
+            })
+            .sum()
+    }
+
+    /// One-sided PSD of the rate's first differences, (2 sin πfτ0)²·S(f), at `f` Hz (its limit at
+    /// f = 0: zero but for a random walk, whose differences are white).
+    pub fn diff_psd(&self, f: f64) -> f64 {
+        if f <= 0.0 {
+            let tau0 = self.tau0;
+            return self
+                .parts
+                .iter()
+                .filter(|p| p.0 == NoiseClass::RandomWalkFm)
+                .map(|&(_, a)| 6.0 * a * tau0 * tau0)
+                .sum();
+        }
+        (2.0 * (std::f64::consts::PI * f * self.tau0).sin()).powi(2) * self.rate_psd(f)
+    }
+
+    /// Structure function of the rate, E[(y(t+τ) − y(t))²], at τ ≥ τ0.
+    pub fn rate_structure(&self, tau: f64) -> f64 {
+        let tau0 = self.tau0;
+        self.parts
+            .iter()
+            .map(|&(class, a)| match class {
+                NoiseClass::WhitePm => 4.0 * a / (tau0 * tau0),
+                NoiseClass::WhiteFm => 2.0 * a / tau0,
+                NoiseClass::FlickerFm => {
+                    a / std::f64::consts::LN_2 * ((std::f64::consts::PI * tau / tau0).ln() + 0.577_215_664_9)
+                }
+                NoiseClass::RandomWalkFm => 3.0 * a * tau,
+            })
+            .sum()
+    }
+
+    /// How many times the Gaussian likelihood ratio of [`find_burst`] over-counts its degrees of
+    /// freedom: the block variances sum squared first differences, which are correlated.
+    ///
+    /// # Formula
+    /// ```text
+    /// factor = 1 + 2·Σ_{h=1..8} ρ_Δ(h)²,   ρ_Δ(h) = ∫ S_Δ(f)·cos(2πfhτ0) df / ∫ S_Δ(f) df
+    /// S_Δ(f) = (2 sin πfτ0)²·S(f)
+    /// ```
+    /// the variance of a sum of squares of a correlated Gaussian sequence over that of an
+    /// independent one (ρ_Δ(1) = −½ for white noise: 1.5).
+    pub fn burst_dof_factor(&self) -> f64 {
+        const BINS: usize = 4096;
+        let f_n = 0.5 / self.tau0;
+        let spectrum: Vec<(f64, f64)> = (0..BINS)
+            .map(|k| {
+                let f = (k as f64 + 0.5) / BINS as f64 * f_n;
+                (f, self.diff_psd(f))
+            })
+            .collect();
+        let total: f64 = spectrum.iter().map(|p| p.1).sum();
+        if !(total > 0.0) {
+            return 1.5;
+        }
+        let rho = |h: f64| {
+            spectrum
+                .iter()
+                .map(|&(f, s)| s * (2.0 * std::f64::consts::PI * f * self.tau0 * h).cos())
+                .sum::<f64>()
+                / total
+        };
+        1.0 + 2.0 * (1..=8).map(|h| rho(h as f64).powi(2)).sum::<f64>()
+    }
+}
+
+/// A regression coefficient with its standard error under the base noise, and t².
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Regression {
+    /// Coefficient, SI.
+    pub coefficient: f64,
+    /// Its 1σ under the base noise.
+    pub sigma: f64,
+    /// (coefficient/σ)²: χ²₁ when there is no effect.
+    pub t2: f64,
+}
+
+/// The first differences of a rate series, tapered, Fourier transformed and weighted by the base
+/// noise: generalised least squares in the frequency domain (Whittle's approximation of the
+/// Gaussian likelihood).
+///
+/// Why the frequency domain: the Fourier coefficients of stationary noise are nearly independent
+/// with variance ∝ S(f), so the GLS fit of any driver — a slow temperature or a fast vibration —
+/// costs one transform. Why first differences: a random walk's differences are stationary (its
+/// levels are not, and their transform is dominated by the record's end-to-start jump). Why a
+/// taper: the differences of a finite record still jump at the wrap-around (their sum is the rate's
+/// end minus its start), which a plain transform spreads over every bin as a constant — and the
+/// differences of white noise have almost no power at low frequencies, so that constant buries
+/// them. The Hann taper's three Fourier taps (½, −¼, −¼) cancel a constant across bins exactly.
+/// The price is known: tapered coefficients correlate with their neighbours, which the variance
+/// below includes. Differencing is invertible up to a constant, so the GLS estimate loses nothing
+/// (an ordinary regression on differences would discard a slow driver).
+///
+/// # Formula
+/// ```text
+/// Y_k = DFT(h·Δy)_k,  X_k likewise for the driver,  h_j = sin²(π(j+½)/n)
+/// s_m = n·S_Δ(f_m)/(2τ0),   S_Δ(f) = (2 sin πfτ0)²·S(f)     (untapered variance)
+/// C_kk = s_k/4 + (s_{k−1} + s_{k+1})/16,  C_k,k+1 = −(s_k + s_{k+1})/8,  C_k,k+2 = s_{k+1}/16
+/// a_k = X_k / C_kk,   c = Σ Re(a_k* Y_k) / Σ Re(a_k* X_k)
+/// var(c) = ½·Re Σ_{k,l} a_k* C_kl a_l / (Σ Re(a_k* X_k))²
+/// ```
+///
+/// # References
+/// Whittle P., "Curve and periodogram smoothing", JRSS B 19(1), 1957; Percival D. B. & Walden
+/// A. T., Spectral Analysis for Physical Applications, CUP 1993, §6.4 (tapers) and §9.
+pub struct Whitened {
+    noise: NoiseSpectrum,
+    len: usize,
+    spectrum: Vec<Complex<f64>>,
+    /// s_m of the formula, m = 0 … ⌈n/2⌉.
+    untapered: Vec<f64>,
+}
+
+impl std::fmt::Debug for Whitened {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Whitened").field("len", &self.len).finish_non_exhaustive()
+    }
+}
+
+impl Whitened {
+    /// Transforms the first differences of `y` (non-finite samples read as the mean) and weights
+    /// them by `noise`. `None` for fewer than 16 samples or a spectrum without power.
+    pub fn new(y: &[f64], noise: &NoiseSpectrum) -> Option<Self> {
+        if y.len() < 17 {
+            return None;
+        }
+        let spectrum = tapered_diff_dft(y);
+        let len = y.len() - 1;
+        let untapered: Vec<f64> = (0..=spectrum.len())
+            .map(|m| len as f64 * noise.diff_psd(m as f64 / (len as f64 * noise.tau0)) / (2.0 * noise.tau0))
+            .collect();
+        if untapered.iter().skip(1).any(|s| !(s.is_finite() && *s > 0.0)) {
+            return None;
+        }
+        Some(Whitened { noise: noise.clone(), len, spectrum, untapered })
+    }
+
+    /// The base noise the series is weighted by.
+    pub fn noise(&self) -> &NoiseSpectrum {
+        &self.noise
+    }
+
+    /// Covariance of tapered coefficients k and k + d (d = 0, 1, 2).
+    fn cov(&self, k: usize, d: usize) -> f64 {
+        let s = |m: usize| self.untapered.get(m).copied().unwrap_or(0.0);
+        match d {
+            0 => s(k) / 4.0 + (s(k - 1) + s(k + 1)) / 16.0,
+            1 => -(s(k) + s(k + 1)) / 8.0,
+            2 => s(k + 1) / 16.0,
+            _ => 0.0,
+        }
+    }
+
+    /// GLS regression of the rate on a driver `x` (one value per rate sample).
+    pub fn regress(&self, x: &[f64]) -> Option<Regression> {
+        if x.len() != self.len + 1 {
+            return None;
+        }
+        let xs = tapered_diff_dft(x);
+        let bins = xs.len();
+        let a: Vec<Complex<f64>> = (0..bins)
+            .map(|k| if k == 0 { Complex::new(0.0, 0.0) } else { xs[k] / self.cov(k, 0) })
+            .collect();
+        let num: f64 = (1..bins).map(|k| (a[k].conj() * self.spectrum[k]).re).sum();
+        let den: f64 = (1..bins).map(|k| (a[k].conj() * xs[k]).re).sum();
+        if !(den > 0.0) {
+            return None;
+        }
+        let var_num = 0.5
+            * (1..bins)
+                .map(|k| {
+                    let mut v = a[k].norm_sqr() * self.cov(k, 0);
+                    for d in 1..=2 {
+                        if k + d < bins {
+                            v += 2.0 * (a[k].conj() * a[k + d]).re * self.cov(k, d);
+                        }
+                    }
+                    v
+                })
+                .sum::<f64>();
+        if !(var_num > 0.0) {
+            return None;
+        }
+        let coefficient = num / den;
+        let sigma = var_num.sqrt() / den;
+        Some(Regression { coefficient, sigma, t2: (coefficient / sigma).powi(2) })
+    }
+}
+
+/// DFT of the first differences of `y`, Hann-tapered (non-finite samples read as the mean of `y`),
+/// bins 0 … ⌈(n−1)/2⌉−1. Their mean is kept: it is the end-minus-start jump that the taper cancels
+/// (removing it would leave −¼ of the jump in bin 1).
+fn tapered_diff_dft(y: &[f64]) -> Vec<Complex<f64>> {
+    let mean = finite_mean(y);
+    let clean = |v: f64| if v.is_finite() { v } else { mean };
+    let diffs: Vec<f64> = y.windows(2).map(|w| clean(w[1]) - clean(w[0])).collect();
+    let n = diffs.len();
+    let mut d: Vec<Complex<f64>> = diffs
+        .iter()
+        .enumerate()
+        .map(|(j, &v)| {
+            let h = (std::f64::consts::PI * (j as f64 + 0.5) / n as f64).sin().powi(2);
+            Complex::new(v * h, 0.0)
+        })
+        .collect();
+    FftPlanner::new().plan_fft_forward(n).process(&mut d);
+    d.truncate(n.div_ceil(2));
+    d
+}
+
+/// The best single step in the mean, scanned over every time, against the base noise.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepScan {
+    /// First sample after the best step.
+    pub index: usize,
+    /// The contrast there, SI.
+    pub size: f64,
+    /// 1σ of the contrast under the base noise.
+    pub sigma: f64,
+    /// (size/σ)² at the best time.
+    pub t2: f64,
+    /// Probability that the base noise alone gives a maximum this large.
+    pub p_value: f64,
+    /// Window, samples.
+    pub window: usize,
+    positions: f64,
+    lambda2: f64,
+}
+
+impl StepScan {
+    /// The probability of the scan's maximum reaching `t2` under the base noise (the bound of
+    /// [`step_scan`]).
+    pub fn p_at(&self, t2: f64) -> f64 {
+        let t2 = t2.max(0.0);
+        let tail = erfc((t2 / 2.0).sqrt());
+        let rice = tail
+            + 2.0 * self.positions * self.lambda2.sqrt() / (2.0 * std::f64::consts::PI) * (-0.5 * t2).exp();
+        (self.positions * tail).min(rice).min(1.0)
+    }
+}
+
+/// Longest and shortest step windows, as fractions of the record.
+const STEP_WINDOW_RANGE: (f64, f64) = (1.0 / 60.0, 1.0 / 6.0);
+
+/// The window of [`step_scan`] for `n` samples: where the Allan variance of `noise` is least,
+/// between record/60 and record/6 (40 candidates, log-spaced).
+pub fn step_window(n: usize, noise: &NoiseSpectrum) -> usize {
+    let (lo, hi) = (
+        ((n as f64 * STEP_WINDOW_RANGE.0) as usize).max(2),
+        ((n as f64 * STEP_WINDOW_RANGE.1) as usize).max(2),
+    );
+    (0..=40)
+        .map(|k| (lo as f64 * (hi as f64 / lo as f64).powf(k as f64 / 40.0)).round() as usize)
+        .min_by(|&a, &b| noise.avar(a as f64 * noise.tau0).total_cmp(&noise.avar(b as f64 * noise.tau0)))
+        .unwrap_or(lo)
+}
+
+/// The step contrast of [`find_step`] scanned over every time, with the window where the base
+/// noise lets a step show most, tested against that noise.
+///
+/// The contrast D(i) = mean(y[i..i+W]) − mean(y[i−W..i]) has variance 2σ²_A(W·τ0) under any
+/// stationary noise (it *is* the Allan difference at τ = W·τ0), so the window where the fitted
+/// Allan variance is least (the bias-instability floor, between the white and random-walk
+/// slopes) is where a step stands out most; W is searched over record/60 … record/6.
+///
+/// # Formula
+/// ```text
+/// t²(i) = D(i)² / (2σ²_A(Wτ0)),   t² = max over W ≤ i ≤ n − W
+/// λ₂ = var(D(i+1) − D(i)) / var(D) = (4·D_y(Wτ0) − D_y(2Wτ0)) / (W²·2σ²_A(Wτ0))
+/// p = min(M·P(|Z| > t),  P(|Z| > t) + 2M·(√λ₂/2π)·e^{−t²/2}),   M = n − 2W
+/// ```
+/// with D_y the rate's structure function ([`NoiseSpectrum::rate_structure`]): Rice's formula for
+/// the up-crossings of ±t by the standardised scan (λ₂ its second spectral moment per sample²),
+/// capped by the Bonferroni bound over the M times. Both are upper bounds, so the test is
+/// conservative where the scan is rough (white noise: the Brownian scan crosses far less often than
+/// its sample-to-sample roughness claims).
+///
+/// # References
+/// Rice S. O., "Mathematical analysis of random noise", Bell Syst. Tech. J. 24, 1945;
+/// Cramér H. & Leadbetter M. R., Stationary and Related Stochastic Processes, Wiley 1967, §10.
+pub fn step_scan(y: &[f64], noise: &NoiseSpectrum) -> Option<StepScan> {
+    let n = y.len();
+    let tau0 = noise.tau0;
+    let w = step_window(n, noise);
+    if n < 2 * w + 1 {
+        return None;
+    }
+    let var_d = 2.0 * noise.avar(w as f64 * tau0);
+    if !(var_d > 0.0) {
+        return None;
+    }
+    let prefix = prefix_sums(y);
+    let wf = w as f64;
+    let contrast = |i: usize| (prefix[i + w] - prefix[i]) / wf - (prefix[i] - prefix[i - w]) / wf;
+    let (index, size) = (w..=n - w)
+        .map(|i| (i, contrast(i)))
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))?;
+    let wt = wf * tau0;
+    let lambda2 = ((4.0 * noise.rate_structure(wt) - noise.rate_structure(2.0 * wt)) / (wf * wf) / var_d).max(0.0);
+    let mut scan = StepScan {
+        index,
+        size,
+        sigma: var_d.sqrt(),
+        t2: size * size / var_d,
+        p_value: 1.0,
+        window: w,
+        positions: (n - 2 * w + 1) as f64,
+        lambda2,
     };
-    est.strength > threshold
+    scan.p_value = scan.p_at(scan.t2);
+    Some(scan)
+}
+
+/// Prefix sums of `y` with non-finite samples read as 0 (length n + 1).
+fn prefix_sums(y: &[f64]) -> Vec<f64> {
+    let mut prefix = Vec::with_capacity(y.len() + 1);
+    let mut acc = 0.0;
+    prefix.push(0.0);
+    for &v in y {
+        acc += if v.is_finite() { v } else { 0.0 };
+        prefix.push(acc);
+    }
+    prefix
+}
+
+/// Two-sided p-value of a t statistic given as t² (the normal tail, ×`tests` for the best of
+/// that many).
+pub fn p_of_t2(t2: f64, tests: usize) -> f64 {
+    (tests.max(1) as f64 * erfc((t2.max(0.0) / 2.0).sqrt())).min(1.0)
 }
 
 /// Samples per block for windowed statistics: about one second, at least 8 samples.
-fn block_len(tau0: f64) -> usize {
+pub fn block_len(tau0: f64) -> usize {
     ((1.0 / tau0).round() as usize).max(8)
 }
 
@@ -289,13 +720,7 @@ pub fn find_step(y: &[f64]) -> (usize, f64, f64) {
     if n < 2 * w + 1 {
         return (0, 0.0, 0.0);
     }
-    let mut prefix = Vec::with_capacity(n + 1);
-    let mut acc = 0.0;
-    prefix.push(0.0);
-    for &v in y {
-        acc += if v.is_finite() { v } else { 0.0 };
-        prefix.push(acc);
-    }
+    let prefix = prefix_sums(y);
     let wf = w as f64;
     let contrast = |i: usize| (prefix[i + w] - prefix[i]) / wf - (prefix[i] - prefix[i - w]) / wf;
     let (best_i, best_d) = (w..=n - w)
@@ -431,6 +856,74 @@ mod tests {
         let b = find_burst(&y, 0.01);
         assert!((b.start as i64 - 30_000).abs() <= 100 && (b.end as i64 - 50_000).abs() <= 100, "{b:?}");
         assert!((b.factor - 3.0).abs() < 0.1, "{b:?}");
+    }
+
+    /// White rate noise plus a random walk (K²τ/3 = N²/τ at τ = 5 s), as a fitted model would give.
+    fn coloured(n: usize, seed: u64, tau0: f64) -> (Vec<f64>, NoiseSpectrum) {
+        let (nw, k) = (1e-3, 3.5e-4);
+        let w = noise(n, seed);
+        let e = noise(n, seed + 1000);
+        let mut walk = 0.0;
+        let y = w
+            .iter()
+            .zip(&e)
+            .map(|(a, b)| {
+                walk += k * tau0.sqrt() * b;
+                nw / tau0.sqrt() * a + walk
+            })
+            .collect();
+        let taus = [1.0];
+        let spectrum = NoiseSpectrum::from_curves(
+            tau0,
+            &taus,
+            [(NoiseClass::WhiteFm, &[nw * nw][..]), (NoiseClass::RandomWalkFm, &[k * k / 3.0][..])],
+        );
+        (y, spectrum)
+    }
+
+    #[test]
+    fn regression_on_a_slow_driver_is_calibrated_under_a_random_walk() {
+        // A warm-up: the spurious regression a white-noise test falls for. Under the fitted
+        // coloured noise t² must be χ²₁: mean 1 (sd of the mean of 200: 0.1), 1 % above 6.63.
+        let (tau0, n) = (0.01, 30_000);
+        let x: Vec<f64> = (0..n).map(|i| 8.0 * (1.0 - (-(i as f64) * tau0 / 100.0).exp())).collect();
+        let t2: Vec<f64> = (0..200u64)
+            .map(|s| {
+                let (y, spectrum) = coloured(n, 10 + s, tau0);
+                Whitened::new(&y, &spectrum).unwrap().regress(&x).unwrap().t2
+            })
+            .collect();
+        let mean = t2.iter().sum::<f64>() / t2.len() as f64;
+        let above = t2.iter().filter(|&&v| v > 6.63).count();
+        assert!((0.7..=1.35).contains(&mean), "mean t² {mean}");
+        assert!(above <= 8, "{above} of 200 above the 1 % point");
+        // The OLS t² of the same data: the spurious regression.
+        let (y, _) = coloured(n, 10, tau0);
+        assert!(regress(&y, &x).2 > 50.0, "{}", regress(&y, &x).2);
+    }
+
+    #[test]
+    fn regression_recovers_a_coefficient_within_its_sigma() {
+        let (tau0, n) = (0.01, 30_000);
+        let x: Vec<f64> = (0..n).map(|i| (i as f64 * tau0 * 0.3).sin()).collect();
+        let (mut y, spectrum) = coloured(n, 3, tau0);
+        y.iter_mut().zip(&x).for_each(|(a, b)| *a += 2e-3 * b);
+        let r = Whitened::new(&y, &spectrum).unwrap().regress(&x).unwrap();
+        assert!((r.coefficient - 2e-3).abs() < 4.0 * r.sigma, "{r:?}");
+        assert!(r.t2 > 100.0, "{r:?}");
+    }
+
+    #[test]
+    fn step_scan_finds_a_step_and_stays_quiet_without_one() {
+        let (tau0, n) = (0.01, 60_000);
+        let (mut y, spectrum) = coloured(n, 5, tau0);
+        let quiet = step_scan(&y, &spectrum).unwrap();
+        assert!(quiet.p_value > 0.01, "{quiet:?}");
+        let size = 8.0 * quiet.sigma;
+        y.iter_mut().skip(25_000).for_each(|v| *v += size);
+        let s = step_scan(&y, &spectrum).unwrap();
+        assert!(s.p_value < 1e-6 && (s.index as i64 - 25_000).abs() < s.window as i64 / 2, "{s:?}");
+        assert!((s.size - size).abs() < 2.0 * s.sigma, "{s:?}");
     }
 
     #[test]

@@ -1,0 +1,183 @@
+//! Calibration and power curves of the diagnosis (issue 10): how often a clean axis gets a
+//! suggestion, and how often a hidden effect of a given strength is named.
+//!
+//! ```text
+//! cargo run --release --no-default-features --example diagnosis_power -- null RECORDINGS [SEED]
+//! cargo run --release --no-default-features --example diagnosis_power -- power PER_POINT [SEED] [PNG]
+//! ```
+//! `null` simulates clean six-axis recordings over 100–400 Hz, 20 min–2 h and the N/B/K mixes of
+//! `tests/power_common` and prints every candidate the diagnosis weighed (CSV on stdout; the clean
+//! axes that got a suggestion on stderr). `power` hides each effect at a ladder of strengths in
+//! PER_POINT recordings per point (100/200/400 Hz, 20 and 60 min, every mix) and prints a markdown
+//! table; with PNG it also draws the curves. Runs on two threads.
+
+#[path = "../tests/power_common/mod.rs"]
+mod power_common;
+
+use fdavar::model::effects::REGISTRY;
+use fdavar::model::{diagnose, FitOptions, ModelSpec};
+use fdavar::signal::Axis;
+use plotters::prelude::*;
+use power_common::{families, par_map, power_point, record, settings, spec_yaml, Scale};
+
+/// Rates (Hz) and lengths (min) of the null calibration: short records three times as often as
+/// the long ones (cost grows with rate × length).
+const NULL_GRID: &[(f64, f64)] = &[
+    (100.0, 20.0),
+    (200.0, 20.0),
+    (400.0, 20.0),
+    (100.0, 60.0),
+    (200.0, 60.0),
+    (100.0, 120.0),
+    (100.0, 20.0),
+    (200.0, 20.0),
+    (400.0, 20.0),
+    (400.0, 60.0),
+    (200.0, 120.0),
+    (400.0, 120.0),
+    (100.0, 20.0),
+    (200.0, 20.0),
+    (400.0, 20.0),
+    (100.0, 60.0),
+];
+
+/// Rates and lengths of the power curves.
+const POWER_GRID: &[(f64, f64)] = &[(100.0, 20.0), (200.0, 20.0), (400.0, 20.0), (100.0, 60.0)];
+
+/// Strengths per scale: AVAR peak ratio, σ of the test.
+const LADDER: [&[f64]; 2] = [&[0.1, 0.2, 0.35, 0.5, 1.0, 2.0], &[3.0, 4.0, 5.0, 6.0, 8.0]];
+
+fn null(recordings: usize, seed: u64) {
+    let nbk = ModelSpec::parse_in("N,B,K", REGISTRY).unwrap();
+    let set = settings(recordings, NULL_GRID, seed);
+    println!("rate,minutes,mix,seed,axis,effect,statistic,threshold,p,significant");
+    let rows = par_map(&set, 2, |s| {
+        let rec = record(&spec_yaml(s, &Axis::ALL, &[], &[]));
+        let mut lines = Vec::new();
+        let mut flagged = Vec::new();
+        for axis in Axis::ALL {
+            let d = diagnose(&rec.input(axis), &nbk, REGISTRY, &FitOptions::default()).unwrap();
+            if !d.suggestions.is_empty() {
+                let names: Vec<&str> = d.suggestions.iter().map(|x| x.effect.as_str()).collect();
+                flagged.push(format!("{} Hz {} min {} seed {} {axis}: {names:?}", s.rate, s.minutes, s.mix.name, s.seed));
+            }
+            for w in &d.weighed {
+                lines.push(format!(
+                    "{},{},{},{},{axis},{},{:.4},{:.4},{},{}",
+                    s.rate,
+                    s.minutes,
+                    s.mix.name,
+                    s.seed,
+                    w.effect,
+                    w.statistic,
+                    w.threshold,
+                    w.p_value.map_or(String::new(), |p| format!("{p:.3e}")),
+                    w.significant
+                ));
+            }
+        }
+        (lines, flagged)
+    });
+    let mut axes = 0;
+    let mut flagged = 0;
+    for (lines, f) in rows {
+        axes += 6;
+        flagged += f.len();
+        lines.iter().for_each(|l| println!("{l}"));
+        f.iter().for_each(|l| eprintln!("{l}"));
+    }
+    eprintln!("clean axes with a suggestion: {flagged}/{axes}");
+}
+
+fn power(per_point: usize, seed: u64, png: Option<&str>) {
+    let set = settings(per_point, POWER_GRID, seed);
+    let mut curves: Vec<(&str, Scale, Vec<(f64, f64)>)> = Vec::new();
+    println!("| effect | strength | detected | parameters within tolerance (of detected) | named instead |");
+    println!("|---|---|---|---|---|");
+    for family in families() {
+        let ladder = LADDER[usize::from(family.scale == Scale::TestSigma)];
+        let mut curve = Vec::new();
+        for &strength in ladder {
+            let out = power_point(&family, strength, &set, 2);
+            let detected = out.iter().filter(|o| o.detected).count();
+            let ok = out.iter().filter(|o| o.params_ok).count();
+            let mut instead: Vec<String> = out.iter().filter_map(|o| o.instead.clone()).collect();
+            instead.sort();
+            instead.dedup();
+            let unit = if family.scale == Scale::AvarPeak { "× base AVAR" } else { "σ" };
+            println!(
+                "| {} | {strength} {unit} | {detected}/{} | {ok}/{detected} | {} |",
+                family.name,
+                out.len(),
+                instead.join(", ")
+            );
+            curve.push((strength, detected as f64 / out.len() as f64));
+        }
+        curves.push((family.name, family.scale, curve));
+    }
+    if let Some(path) = png {
+        draw(path, &curves).unwrap();
+    }
+}
+
+/// Detection rate vs strength: spectral effects left (AVAR peak ratio, log axis), time-domain
+/// right (σ).
+fn draw(path: &str, curves: &[(&str, Scale, Vec<(f64, f64)>)]) -> Result<(), Box<dyn std::error::Error>> {
+    let root = BitMapBackend::new(path, (1200, 520)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let (left, right) = root.split_horizontally(600);
+    for (area, scale) in [(left, Scale::AvarPeak), (right, Scale::TestSigma)] {
+        let log = scale == Scale::AvarPeak;
+        let (title, x_label, range) = if log {
+            ("Spectral effects", "AVAR peak ratio (effect / base N,B,K), log", (-1.1f64, 0.4f64))
+        } else {
+            ("Time-domain effects", "strength: σ of the test under the base noise", (2.5, 8.5))
+        };
+        let mut chart = ChartBuilder::on(&area)
+            .caption(title, ("sans-serif", 22))
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(55)
+            .build_cartesian_2d(range.0..range.1, 0f64..1.02f64)?;
+        let format = |x: &f64| if log { format!("{:.2}", 10f64.powf(*x)) } else { format!("{x:.0}") };
+        chart
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc("hidden effect named first")
+            .x_label_formatter(&format)
+            .draw()?;
+        let mine: Vec<_> = curves.iter().filter(|c| c.1 == scale).collect();
+        for (i, (name, _, pts)) in mine.iter().enumerate() {
+            let color = Palette99::pick(i).to_rgba();
+            let pts: Vec<(f64, f64)> = pts.iter().map(|&(x, y)| (if log { x.log10() } else { x }, y)).collect();
+            chart
+                .draw_series(LineSeries::new(pts.iter().copied(), color.stroke_width(2)))?
+                .label(*name)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
+            chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled())))?;
+        }
+        chart
+            .draw_series(LineSeries::new(vec![(range.0, 0.9), (range.1, 0.9)], BLACK.mix(0.4)))?
+            .label("90 %")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.mix(0.4)));
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerRight)
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let count = args.get(2).and_then(|a| a.parse().ok()).unwrap_or(16);
+    let seed = args.get(3).and_then(|a| a.parse().ok()).unwrap_or(1000);
+    match args.get(1).map(String::as_str) {
+        Some("null") => null(count, seed),
+        Some("power") => power(count, seed, args.get(4).map(String::as_str)),
+        _ => eprintln!("usage: diagnosis_power null|power COUNT [SEED] [PNG]"),
+    }
+}

@@ -1,0 +1,408 @@
+//! Power curves and false alarms of the diagnosis (issue 10), shared by `tests/diagnosis_power.rs`
+//! (a CI-sized run) and `examples/diagnosis_power.rs` (the full curves of docs/model.md, which
+//! includes this file by path).
+//!
+//! Recordings come from the real simulator (`fdavar::sim`), laid out as a bag is
+//! (`Recording::from_samples`); the diagnosis never sees the truth. Base noise mixes are those of
+//! common MEMS IMUs (`MIXES`); a hidden effect's strength is in units of that base noise:
+//! - spectral effects: the AVAR peak ratio, max over τ ∈ [τ0, T/3] of σ²_effect(τ)/σ²_base(τ);
+//! - time-domain effects: the σ of the diagnosis's own test under the base noise (a step: its size
+//!   over √(2σ²_A(W)) at the scan's window; a regression: the coefficient over its GLS σ; a burst:
+//!   z with z² = n·[ln(φf² + 1 − φ) − φ·ln f²]/κ, twice the expected effective likelihood ratio of
+//!   a span of fraction φ at σ ratio f).
+//!
+//! Effects are built from their public types, so no effect id is written here: each one's id is
+//! read from the effect itself.
+#![allow(dead_code)]
+
+use fdavar::model::effects::{
+    BiasStep, Effect, Evidence, GSensitivity, GaussMarkov, NoiseBurst, Quantization, Ramp, Sinusoid,
+    Temperature, REGISTRY,
+};
+use fdavar::model::measure::NoiseClass;
+use fdavar::model::record::Recording;
+use fdavar::model::timedomain::{step_window, NoiseSpectrum, Whitened};
+use fdavar::model::{diagnose, FitOptions, ModelSpec};
+use fdavar::signal::Axis;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::fmt::Write;
+
+/// A sensor's base noise: name, gyro (N, B, K), accel (N, B, K), SI.
+#[derive(Debug)]
+pub struct Mix {
+    /// Short name.
+    pub name: &'static str,
+    /// Gyro N, B, K.
+    pub gyro: [f64; 3],
+    /// Accel N, B, K.
+    pub accel: [f64; 3],
+}
+
+/// N and K from `../shared/reference/imu_noise_params.md` (Kalibr noise densities and random
+/// walks); B from the datasheets' bias instability where the table gives one (D435i 1.8–4.9 °/h,
+/// VN-100 < 10 °/h and 0.04 mg), else a value in the same range (2–10 °/h, 0.01–0.05 mg); K where
+/// the table has none, a small one (the sensor's K is below its B floor within the record).
+/// `test` is the test suite's own mix (tests/model_common).
+pub const MIXES: &[Mix] = &[
+    Mix { name: "test", gyro: [1.5e-4, 5.0e-5, 2.7e-6], accel: [2.0e-3, 4.0e-4, 1.2e-4] },
+    Mix { name: "d435i", gyro: [1.52e-4, 1.45e-5, 2.66e-6], accel: [6.31e-3, 3.9e-4, 1.17e-4] },
+    Mix { name: "euroc", gyro: [1.6968e-4, 1.0e-5, 1.9393e-5], accel: [2.0e-3, 1.0e-4, 3.0e-3] },
+    Mix { name: "tumvi", gyro: [1.6e-4, 1.0e-5, 2.2e-5], accel: [2.8e-3, 1.0e-4, 8.6e-4] },
+    Mix { name: "vn100", gyro: [6.11e-5, 2.0e-5, 5.0e-7], accel: [1.37e-3, 3.9e-4, 5.0e-5] },
+    Mix { name: "mti100", gyro: [1.75e-4, 2.0e-5, 1.0e-6], accel: [5.9e-4, 1.0e-4, 1.0e-5] },
+    Mix { name: "adis16405", gyro: [8.7e-4, 5.0e-5, 1.0e-5], accel: [4.9e-3, 5.0e-4, 1.0e-4] },
+];
+
+/// One recording's setting: rate (Hz), length (min), base noise, seed.
+#[derive(Debug, Clone, Copy)]
+pub struct Setting {
+    /// Sample rate, Hz.
+    pub rate: f64,
+    /// Length, minutes.
+    pub minutes: f64,
+    /// Base noise.
+    pub mix: &'static Mix,
+    /// Seed of the simulator and of the hidden effect's draw.
+    pub seed: u64,
+}
+
+impl Setting {
+    /// Samples in the record.
+    pub fn samples(&self) -> usize {
+        (self.minutes * 60.0 * self.rate).round() as usize
+    }
+    /// Record length, s.
+    pub fn seconds(&self) -> f64 {
+        self.minutes * 60.0
+    }
+}
+
+/// `count` settings cycling through `grid` (rate, minutes) and every mix, seeds from `seed`.
+pub fn settings(count: usize, grid: &[(f64, f64)], seed: u64) -> Vec<Setting> {
+    (0..count)
+        .map(|i| Setting {
+            rate: grid[i % grid.len()].0,
+            minutes: grid[i % grid.len()].1,
+            mix: &MIXES[(i + i / grid.len()) % MIXES.len()],
+            seed: seed + i as u64,
+        })
+        .collect()
+}
+
+/// The warm-up temperature profile of the test suite: 20 → 28 °C, 10 min time constant, 0.5 K
+/// wobble of period 2π·300 s, published at 10 Hz.
+pub const TEMPERATURE: &str = "{ start_c: 20.0, end_c: 28.0, time_constant_s: 600, cycle_amplitude_c: 0.5, cycle_period_s: 1884.9555921538758, rate_hz: 10 }";
+
+/// The YAML of one effect, `id: { name: value, … }`, from the effect itself.
+pub fn effect_yaml(e: &dyn Effect) -> String {
+    let fields: Vec<String> = e.params().iter().map(|p| format!("{}: {:e}", p.spec.name, p.value)).collect();
+    format!("{}: {{ {} }}", e.kind().id(), fields.join(", "))
+}
+
+/// The simulator spec: the mix on `axes`, the warm-up temperature, `extra` effects on their axes
+/// and `motion` as true accel motion (`vibration`).
+pub fn spec_yaml(s: &Setting, axes: &[Axis], extra: &[(Axis, &dyn Effect)], motion: &[(Axis, &dyn Effect)]) -> String {
+    let mut y = String::new();
+    writeln!(y, "rate_hz: {}\nduration_s: {}\nseed: {}", s.rate, s.seconds(), s.seed).unwrap();
+    writeln!(y, "temperature: {TEMPERATURE}").unwrap();
+    if !motion.is_empty() {
+        y.push_str("vibration:\n");
+        for (axis, e) in motion {
+            writeln!(y, "  {}: {{ {} }}", axis.name(), effect_yaml(*e)).unwrap();
+        }
+    }
+    y.push_str("axes:\n");
+    for &axis in axes {
+        let [n, b, k] = if axis.is_gyro() { s.mix.gyro } else { s.mix.accel };
+        write!(y, "  {}: {{ N: {{ n: {n:e} }}, B: {{ b: {b:e} }}, K: {{ k: {k:e} }}", axis.name()).unwrap();
+        for (a, e) in extra {
+            if *a == axis {
+                write!(y, ", {}", effect_yaml(*e)).unwrap();
+            }
+        }
+        y.push_str(" }\n");
+    }
+    y
+}
+
+/// Simulates a spec and lays it out as a bag is read.
+pub fn record(yaml: &str) -> Recording {
+    let spec = fdavar::sim::SimSpec::from_yaml(yaml).unwrap_or_else(|e| panic!("{e}\n{yaml}"));
+    let sim = fdavar::sim::simulate(&spec).unwrap_or_else(|e| panic!("{e}\n{yaml}"));
+    Recording::from_samples(&sim.imu, &sim.temperature).unwrap()
+}
+
+/// The base noise of `axis` under the setting's mix, exact for the three power laws.
+pub fn base_noise(s: &Setting, axis: Axis) -> NoiseSpectrum {
+    let [n, b, k] = if axis.is_gyro() { s.mix.gyro } else { s.mix.accel };
+    let (white, flicker, walk) = ([n * n], [2.0 * std::f64::consts::LN_2 / std::f64::consts::PI * b * b], [k * k / 3.0]);
+    NoiseSpectrum::from_curves(
+        1.0 / s.rate,
+        &[1.0],
+        [
+            (NoiseClass::WhiteFm, &white[..]),
+            (NoiseClass::FlickerFm, &flicker[..]),
+            (NoiseClass::RandomWalkFm, &walk[..]),
+        ],
+    )
+}
+
+/// Peak of σ²_effect/σ²_base over τ ∈ [τ0, T/3], ten τ per decade.
+pub fn avar_peak_ratio(e: &dyn Effect, s: &Setting, base: &NoiseSpectrum) -> f64 {
+    let (lo, hi) = (1.0 / s.rate, s.seconds() / 3.0);
+    let steps = ((hi / lo).log10() * 10.0).ceil() as usize;
+    (0..=steps)
+        .map(|i| lo * (hi / lo).powf(i as f64 / steps as f64))
+        .map(|tau| e.avar(tau).unwrap_or(0.0) / base.avar(tau))
+        .fold(0.0, f64::max)
+}
+
+/// How a family's strength is counted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Scale {
+    /// AVAR peak ratio (spectral effects).
+    AvarPeak,
+    /// σ of the diagnosis's test (time-domain effects).
+    TestSigma,
+}
+
+/// A hidden effect on one axis, with the motion it needs.
+#[derive(Debug)]
+pub struct Hidden {
+    /// The axis it is on.
+    pub axis: Axis,
+    /// The effect.
+    pub effect: Box<dyn Effect>,
+    /// True motion of an accel axis (g-sensitivity's driver).
+    pub motion: Option<(Axis, Box<dyn Effect>)>,
+}
+
+/// One effect family of the power curves: a name (the effect's id), how its strength is counted,
+/// and how to hide it at a strength in a setting.
+pub struct Family {
+    /// The effect's id (read from an instance).
+    pub name: &'static str,
+    /// Strength unit.
+    pub scale: Scale,
+    /// Builds the hidden effect.
+    pub make: fn(&Setting, f64, &mut ChaCha8Rng) -> Hidden,
+    /// The stated visibility: the strength at which the effect is named first, with its
+    /// parameters within tolerance, in at least 90 % of recordings (tests/diagnosis_power.rs).
+    pub visible: f64,
+}
+
+fn any_axis(rng: &mut ChaCha8Rng) -> Axis {
+    Axis::ALL[rng.random_range(0..6)]
+}
+
+/// The spectral effect `build(1.0)` scaled so that its AVAR peak ratio is `strength` (σ² of a
+/// spectral effect is proportional to its first parameter squared).
+fn at_peak(s: &Setting, axis: Axis, strength: f64, build: impl Fn(f64) -> Box<dyn Effect>) -> Box<dyn Effect> {
+    let base = base_noise(s, axis);
+    let reference = 1e-3;
+    let r1 = avar_peak_ratio(&*build(reference), s, &base);
+    build(reference * (strength / r1).sqrt())
+}
+
+fn sinusoid(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
+    let axis = any_axis(rng);
+    let f = [0.02, 0.1, 0.5, 2.0][rng.random_range(0..4)];
+    Hidden { axis, effect: at_peak(s, axis, strength, |a| Box::new(Sinusoid::new(a, f).unwrap())), motion: None }
+}
+
+fn gauss_markov(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
+    let axis = any_axis(rng);
+    let t = [0.5, 2.0, 10.0][rng.random_range(0..3)];
+    Hidden { axis, effect: at_peak(s, axis, strength, |a| Box::new(GaussMarkov::new(a, t).unwrap())), motion: None }
+}
+
+fn ramp(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
+    let axis = any_axis(rng);
+    let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+    let e = at_peak(s, axis, strength, |a| Box::new(Ramp::new(a).unwrap()));
+    let r = e.params()[0].value * sign;
+    Hidden { axis, effect: Box::new(Ramp::new(r).unwrap()), motion: None }
+}
+
+fn quantization(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
+    let axis = any_axis(rng);
+    Hidden { axis, effect: at_peak(s, axis, strength, |a| Box::new(Quantization::new(a).unwrap())), motion: None }
+}
+
+fn bias_step(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
+    let axis = any_axis(rng);
+    let base = base_noise(s, axis);
+    let w = step_window(s.samples(), &base);
+    let sigma = (2.0 * base.avar(w as f64 / s.rate)).sqrt();
+    let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+    let time = s.seconds() * rng.random_range(0.25..0.75);
+    Hidden { axis, effect: Box::new(BiasStep::new(time, sign * strength * sigma).unwrap()), motion: None }
+}
+
+fn noise_burst(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
+    let axis = any_axis(rng);
+    let base = base_noise(s, axis);
+    let phi = 0.1;
+    let (n, kappa) = (s.samples() as f64, base.burst_dof_factor());
+    let z2 = |f: f64| n * ((phi * f * f + 1.0 - phi).ln() - phi * (f * f).ln()) / kappa;
+    let (mut lo, mut hi) = (1.0, 10.0);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if z2(mid) < strength * strength {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let start = s.seconds() * rng.random_range(0.2..0.7);
+    let end = start + phi * s.seconds();
+    Hidden { axis, effect: Box::new(NoiseBurst::new(start, end, hi).unwrap()), motion: None }
+}
+
+/// The GLS σ of a regression on `x` under `base`, as the diagnosis computes it.
+fn regression_sigma(x: &[f64], base: &NoiseSpectrum) -> f64 {
+    let zeros = vec![0.0; x.len()];
+    Whitened::new(&zeros, base).and_then(|w| w.regress(x)).map_or(f64::NAN, |r| r.sigma)
+}
+
+fn temperature(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
+    let axis = any_axis(rng);
+    let spec = fdavar::sim::SimSpec::from_yaml(&format!("rate_hz: 1\nduration_s: 1\nseed: 0\ntemperature: {TEMPERATURE}\n")).unwrap();
+    let profile = spec.temperature.unwrap();
+    let x: Vec<f64> = (0..s.samples()).map(|i| profile.at(i as f64 / s.rate)).collect();
+    let sigma = regression_sigma(&x, &base_noise(s, axis));
+    let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+    Hidden { axis, effect: Box::new(Temperature::new(sign * strength * sigma).unwrap()), motion: None }
+}
+
+fn g_sensitivity(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
+    let axis = Axis::ALL[rng.random_range(0..3)];
+    let source = rng.random_range(0..3);
+    let f = [0.05, 0.2, 0.5][rng.random_range(0..3)];
+    let motion = Sinusoid::new(0.5, f).unwrap();
+    let x: Vec<f64> = (0..s.samples())
+        .map(|i| 0.5 * (2.0 * std::f64::consts::PI * f * i as f64 / s.rate).sin())
+        .collect();
+    let sigma = regression_sigma(&x, &base_noise(s, axis));
+    let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+    Hidden {
+        axis,
+        effect: Box::new(GSensitivity::new(source as f64, sign * strength * sigma).unwrap()),
+        motion: Some((Axis::ALL[3 + source], Box::new(motion))),
+    }
+}
+
+/// Every effect beyond N, B, K, with the id read from an instance of it.
+pub fn families() -> Vec<Family> {
+    let id = |e: &dyn Effect| e.kind().id();
+    vec![
+        Family { name: id(&Sinusoid::new(1.0, 1.0).unwrap()), scale: Scale::AvarPeak, make: sinusoid, visible: 2.0 },
+        Family { name: id(&GaussMarkov::new(1.0, 1.0).unwrap()), scale: Scale::AvarPeak, make: gauss_markov, visible: 2.0 },
+        Family { name: id(&Ramp::new(1.0).unwrap()), scale: Scale::AvarPeak, make: ramp, visible: 2.0 },
+        Family { name: id(&Quantization::new(1.0).unwrap()), scale: Scale::AvarPeak, make: quantization, visible: 2.0 },
+        Family { name: id(&BiasStep::new(1.0, 1.0).unwrap()), scale: Scale::TestSigma, make: bias_step, visible: 8.0 },
+        Family { name: id(&NoiseBurst::new(0.0, 1.0, 2.0).unwrap()), scale: Scale::TestSigma, make: noise_burst, visible: 8.0 },
+        Family { name: id(&Temperature::new(1.0).unwrap()), scale: Scale::TestSigma, make: temperature, visible: 8.0 },
+        Family { name: id(&GSensitivity::new(0.0, 1.0).unwrap()), scale: Scale::TestSigma, make: g_sensitivity, visible: 8.0 },
+    ]
+}
+
+/// What the diagnosis made of one recording with a hidden effect.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Outcome {
+    /// The hidden effect was named first.
+    pub detected: bool,
+    /// Its parameters were within tolerance (when detected): amplitudes, coefficients and
+    /// frequencies 10 %, time constants 25 %, times 1 % of the record, a source axis exactly.
+    pub params_ok: bool,
+    /// What was named first instead, if anything.
+    pub instead: Option<String>,
+    /// The worst parameter error, in units of its tolerance (≤ 1 is within).
+    pub worst: f64,
+}
+
+/// Simulates `hidden` in the setting, diagnoses its axis with N,B,K and scores the outcome.
+pub fn run(s: &Setting, hidden: &Hidden) -> Outcome {
+    let mut axes = vec![hidden.axis];
+    if hidden.motion.is_some() {
+        axes.extend([Axis::AccelX, Axis::AccelY, Axis::AccelZ].into_iter().filter(|a| *a != hidden.axis));
+    }
+    let motion: Vec<(Axis, &dyn Effect)> = hidden.motion.iter().map(|(a, e)| (*a, e.as_ref())).collect();
+    let rec = record(&spec_yaml(s, &axes, &[(hidden.axis, hidden.effect.as_ref())], &motion));
+    let nbk = ModelSpec::parse_in("N,B,K", REGISTRY).unwrap();
+    let d = diagnose(&rec.input(hidden.axis), &nbk, REGISTRY, &FitOptions::default()).unwrap();
+    let kind = hidden.effect.kind();
+    let first = d.suggestions.first();
+    let detected = first.is_some_and(|x| x.effect == kind.id());
+    let mut worst: f64 = 0.0;
+    if let Some(sugg) = first.filter(|_| detected) {
+        for (truth, got) in hidden.effect.params().iter().zip(&sugg.params) {
+            let err = match truth.spec.unit {
+                "axis" => {
+                    if got.value == truth.value {
+                        0.0
+                    } else {
+                        f64::INFINITY
+                    }
+                }
+                "s" if kind.evidence() == Evidence::Events => (got.value - truth.value).abs() / (0.01 * s.seconds()),
+                "s" => (got.value / truth.value - 1.0).abs() / 0.25,
+                _ => (got.value.abs() / truth.value.abs() - 1.0).abs() / 0.10,
+            };
+            worst = worst.max(err);
+        }
+    }
+    Outcome {
+        detected,
+        params_ok: detected && worst <= 1.0,
+        instead: first.filter(|_| !detected).map(|x| x.effect.clone()),
+        worst,
+    }
+}
+
+/// Diagnoses every axis of a clean six-axis recording; returns per axis the effects suggested.
+pub fn clean(s: &Setting) -> Vec<Vec<String>> {
+    let rec = record(&spec_yaml(s, &Axis::ALL, &[], &[]));
+    let nbk = ModelSpec::parse_in("N,B,K", REGISTRY).unwrap();
+    Axis::ALL
+        .iter()
+        .map(|&a| {
+            let d = diagnose(&rec.input(a), &nbk, REGISTRY, &FitOptions::default()).unwrap();
+            d.suggestions.into_iter().map(|x| x.effect).collect()
+        })
+        .collect()
+}
+
+/// `f` over `items` on `threads` threads, results in order.
+pub fn par_map<T: Sync, R: Send>(items: &[T], threads: usize, f: impl Fn(&T) -> R + Sync) -> Vec<R> {
+    let threads = threads.max(1);
+    let mut out: Vec<Option<R>> = (0..items.len()).map(|_| None).collect();
+    std::thread::scope(|scope| {
+        let chunks: Vec<_> = out
+            .chunks_mut(items.len().div_ceil(threads).max(1))
+            .zip(items.chunks(items.len().div_ceil(threads).max(1)))
+            .map(|(o, i)| {
+                let f = &f;
+                scope.spawn(move || {
+                    for (slot, item) in o.iter_mut().zip(i) {
+                        *slot = Some(f(item));
+                    }
+                })
+            })
+            .collect();
+        for c in chunks {
+            c.join().unwrap();
+        }
+    });
+    out.into_iter().map(|r| r.unwrap()).collect()
+}
+
+/// Detection rate and parameter accuracy of `family` at `strength` over `settings`.
+pub fn power_point(family: &Family, strength: f64, settings: &[Setting], threads: usize) -> Vec<Outcome> {
+    par_map(settings, threads, |s| {
+        let mut rng = ChaCha8Rng::seed_from_u64(s.seed ^ 0x9e37_79b9);
+        let hidden = (family.make)(s, strength, &mut rng);
+        run(s, &hidden)
+    })
+}

@@ -16,7 +16,7 @@
 
 use crate::allan::TauGrid;
 use crate::davar::{
-    record_variance, ChangeDetector, ChangeEvent, DavarEngine, DavarError, DavarRow,
+    ChangeDetector, ChangeEvent, DavarEngine, DavarError, DavarRow,
     DetectorConfig, EngineConfig, FTarget, FixedWindow, ProportionalPolicy, SigmaRef, SignPolicy,
     WindowPolicy,
 };
@@ -84,8 +84,8 @@ impl PolicyConfig {
 /// How σ²_ref is obtained, as configured (`sigma_ref.mode`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum SigmaRefMode {
-    /// Whole-record variance per axis (offline only: the caller makes a first pass, see
-    /// [`record_variances`]).
+    /// Whole-record variance per axis (offline only: the caller reads the record first, see
+    /// [`record_variances`] and [`record_variances_in_two_passes`]).
     Record,
     /// Running variance of all samples so far.
     Running,
@@ -166,10 +166,52 @@ pub struct Output {
 
 /// The whole-record variance of each axis ([`SigmaRefMode::Record`]); `None` where undefined.
 pub fn record_variances(samples: &[ImuSample]) -> [Option<f64>; 6] {
-    Axis::ALL.map(|a| {
-        let values: Vec<f64> = samples.iter().map(|s| s.value(a)).collect();
-        record_variance(&values).filter(|v| *v > 0.0)
-    })
+    let all = record_variances_in_two_passes(|f| {
+        samples.iter().for_each(f);
+        Ok::<(), std::convert::Infallible>(())
+    });
+    match all {
+        Ok(v) => v,
+        Err(never) => match never {},
+    }
+}
+
+/// The whole-record variance of each axis over a record read twice, in the same order, by `pass`
+/// (which feeds every sample to the function it is given): the mean first, then the squared
+/// deviations from it. Memory stays constant however long the record; the numbers are those of
+/// [`crate::davar::record_variance`] on the values held in memory, operation for operation.
+///
+/// # Errors
+/// The first error `pass` returns.
+pub fn record_variances_in_two_passes<E>(
+    mut pass: impl FnMut(&mut dyn FnMut(&ImuSample)) -> Result<(), E>,
+) -> Result<[Option<f64>; 6], E> {
+    let (mut sum, mut n) = ([0.0f64; 6], [0u64; 6]);
+    pass(&mut |s| {
+        for a in Axis::ALL {
+            let v = s.value(a);
+            if v.is_finite() {
+                sum[a.index()] += v;
+                n[a.index()] += 1;
+            }
+        }
+    })?;
+    let mean: [f64; 6] = std::array::from_fn(|i| sum[i] / n[i] as f64);
+    let mut m2 = [0.0f64; 6];
+    pass(&mut |s| {
+        for a in Axis::ALL {
+            let v = s.value(a);
+            if v.is_finite() {
+                let d = v - mean[a.index()];
+                m2[a.index()] += d * d;
+            }
+        }
+    })?;
+    Ok(std::array::from_fn(|i| {
+        (n[i] >= 2)
+            .then(|| m2[i] / n[i] as f64)
+            .filter(|v| *v > 0.0)
+    }))
 }
 
 struct AxisState {

@@ -48,7 +48,7 @@ fn json_has_rows_and_the_seed_change() {
             params,
             "--json",
             "--every",
-            "10",
+            "0.3",
         ])
         .output()
         .unwrap();
@@ -61,9 +61,12 @@ fn json_has_rows_and_the_seed_change() {
     let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(doc["tau0"].as_f64(), Some(0.03));
     let rows = doc["rows"].as_array().unwrap();
-    assert!(rows
+    // One row per 0.3 s (10 samples at 30 ms) of analysis time.
+    let slots: Vec<i64> = rows
         .iter()
-        .all(|r| r["row"]["index"].as_u64().unwrap() % 10 == 0));
+        .map(|r| (r["time_s"].as_f64().unwrap() / 0.3).floor() as i64)
+        .collect();
+    assert!(slots.windows(2).all(|w| w[1] == w[0] + 1), "{slots:?}");
     assert!(rows
         .iter()
         .all(|r| r["row"]["f_target"].as_f64() == Some(3.3)));
@@ -96,7 +99,7 @@ fn csv_has_one_line_per_row_and_tau() {
             "100",
             "--csv",
             "--every",
-            "500",
+            "5",
         ])
         .output()
         .unwrap();
@@ -171,7 +174,7 @@ fn bag_input_runs_all_axes_and_reports_irregularities() {
     }
     writer.finish().unwrap();
     let out = fdavar()
-        .args(["davar", bag.to_str().unwrap(), "--json", "--every", "50"])
+        .args(["davar", bag.to_str().unwrap(), "--json", "--every", "0.5"])
         .output()
         .unwrap();
     assert_eq!(
@@ -199,4 +202,89 @@ fn bag_input_runs_all_axes_and_reports_irregularities() {
         .map(|e| e["axis"].as_str().unwrap())
         .collect();
     assert_eq!(changed, ["gyro_z"]);
+}
+
+/// The rows, events and τ0 of `fdavar davar BAG --json` on a bundled bag, as JSON values.
+fn davar_json(bag: &str, extra: &[&str]) -> serde_json::Value {
+    let params = concat!(env!("CARGO_MANIFEST_DIR"), "/launch_params/seed_2016.yaml");
+    let out = fdavar()
+        .args(["davar", bag, "--params", params, "--json"])
+        .args(extra)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+/// The streamed CLI (the bag read three times for the whole-record σ²_ref, never held) prints the
+/// rows and events of the in-memory path: every sample read into memory, `record_variances` over
+/// them, one pipeline. Both sides go through the same JSON text, so equal values mean equal bits.
+#[test]
+fn streamed_output_equals_the_in_memory_path() {
+    use fdavar::pipeline::{record_variances, Output, Pipeline};
+    let bag = concat!(env!("CARGO_MANIFEST_DIR"), "/bags/seed_2016");
+    let params = concat!(env!("CARGO_MANIFEST_DIR"), "/launch_params/seed_2016.yaml");
+    let config = fdavar::params::load(std::path::Path::new(params)).unwrap();
+    assert_eq!(config.sigma_ref, fdavar::pipeline::SigmaRefMode::Record);
+    let reader = fdavar::bag::BagReader::open(bag).unwrap();
+    let topic = reader.imu_topic(None).unwrap().name.clone();
+    let samples: Vec<fdavar::signal::ImuSample> = reader
+        .messages(&topic, None)
+        .unwrap()
+        .filter_map(|m| match m.unwrap() {
+            fdavar::bag::BagMessage::Imu { sample, .. } => Some(sample),
+            _ => None,
+        })
+        .collect();
+    let mut p = Pipeline::new(
+        config,
+        &fdavar::signal::Axis::ALL,
+        Some(record_variances(&samples)),
+    )
+    .unwrap();
+    let mut out = Output::default();
+    for s in &samples {
+        p.push(s, &mut out);
+    }
+    p.finish(&mut out);
+    let expected: serde_json::Value = serde_json::from_str(&format!(
+        "{{\"rows\":{},\"events\":{},\"tau0\":{}}}",
+        serde_json::to_string(&out.rows).unwrap(),
+        serde_json::to_string(&out.events).unwrap(),
+        serde_json::to_string(&p.tau0()).unwrap()
+    ))
+    .unwrap();
+    let doc = davar_json(bag, &[]);
+    assert_eq!(doc["rows"].as_array().unwrap().len(), out.rows.len());
+    assert!(out.rows.len() > 6 * 3000, "{}", out.rows.len());
+    for key in ["rows", "events", "tau0"] {
+        assert!(doc[key] == expected[key], "{key} differs");
+    }
+    assert_eq!(doc["events"].as_array().unwrap().len(), 6, "the burst on every axis");
+}
+
+/// `--every S` keeps, per axis, exactly the first row of each interval [k·S, (k+1)·S) of analysis
+/// time, and leaves the events alone.
+#[test]
+fn every_keeps_the_first_row_of_each_interval() {
+    let bag = concat!(env!("CARGO_MANIFEST_DIR"), "/bags/seed_2016");
+    let all = davar_json(bag, &[]);
+    let every = 0.5;
+    let some = davar_json(bag, &["--every", "0.5"]);
+    let mut seen = std::collections::BTreeSet::new();
+    let expected: Vec<&serde_json::Value> = all["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|r| {
+            let slot = (r["time_s"].as_f64().unwrap() / every).floor() as i64;
+            seen.insert((r["axis"].as_str().unwrap().to_string(), slot))
+        })
+        .collect();
+    let kept: Vec<&serde_json::Value> = some["rows"].as_array().unwrap().iter().collect();
+    assert_eq!(kept, expected);
+    // Rows come every 30 ms: about one in 17 is kept.
+    let ratio = all["rows"].as_array().unwrap().len() as f64 / kept.len() as f64;
+    assert!((ratio - 0.5 / 0.03).abs() < 0.5, "{ratio}");
+    assert_eq!(some["events"], all["events"]);
 }

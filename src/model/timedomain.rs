@@ -749,57 +749,146 @@ pub struct Burst {
     pub strength: f64,
 }
 
+impl Burst {
+    /// No burst: an empty span, factor 1, strength 0.
+    pub const NONE: Burst = Burst { start: 0, end: 0, factor: 1.0, strength: 0.0 };
+}
+
 /// Finds the one span whose white-noise level differs most, by a Gaussian likelihood ratio on
 /// per-block variances of first differences (slow effects cancel in the differences).
+///
+/// The search is exact and costs O(nb·h) instead of the O(nb²) of scoring every span: LLR is a
+/// convex function of the span's point (n_in, V_in), and every span is a difference of two points
+/// of the cumulative path Pₖ = (Σ_{j<k} n_j, Σ_{j<k} v_j). For a fixed start s, a convex function
+/// of P_e − P_s takes its maximum over e > s at a vertex of the convex hull of {P_e : e > s}; the
+/// lower and upper hulls of those suffixes are kept on two stacks while s walks backwards (Andrew's
+/// monotone chain: each point pushed and popped once). h, the number of hull vertices, is that of
+/// the convex minorant plus the concave majorant of a random walk: about 2·ln nb for noise, so the
+/// search is O(nb log nb) on data (13 h of 1 s blocks: 1.1·10⁹ spans scored before, issue 11).
 ///
 /// # Formula
 /// ```text
 /// vₖ = Σ_{block k} (y[i+1] − y[i])² / 2        (b samples per block)
 /// LLR(s, e) = ½·[n·ln(V/n) − n_in·ln(V_in/n_in) − n_out·ln(V_out/n_out)]
 /// ```
-/// maximised over block spans [s, e), where V sums vₖ and n counts differences.
+/// maximised over block spans [s, e), where V sums vₖ and n counts differences. n·ln(V/n) is the
+/// perspective of ln, concave in (n, V), so LLR is convex wherever V_in, V_out > 0 (a span of
+/// exactly constant samples, V_in = 0 with n_in > 0, is the one case the hull may miss). LLR ≥ 0
+/// and is 0 for the whole record, so leaving that span out never hides a better one.
+///
+/// # References
+/// S. Boyd, L. Vandenberghe, Convex Optimization, Cambridge University Press, 2004, §3.2.6
+/// (perspective). A. M. Andrew, "Another efficient algorithm for convex hulls in two dimensions",
+/// Information Processing Letters 9(5), 1979. P. Groeneboom, "The concave majorant of Brownian
+/// motion", Annals of Probability 11(4), 1983 (the logarithmic vertex count).
 pub fn find_burst(y: &[f64], tau0: f64) -> Burst {
-    let b = block_len(tau0);
-    let nb = y.len() / b;
-    let none = Burst { start: 0, end: 0, factor: 1.0, strength: 0.0 };
-    if nb < 4 {
-        return none;
-    }
-    let mut v = Vec::with_capacity(nb);
-    let mut c = Vec::with_capacity(nb);
-    for k in 0..nb {
-        let blk = &y[k * b..((k + 1) * b + 1).min(y.len())];
-        let (s, n) = blk
-            .windows(2)
-            .filter(|p| p[0].is_finite() && p[1].is_finite())
-            .fold((0.0, 0usize), |(s, n), p| (s + 0.5 * (p[1] - p[0]).powi(2), n + 1));
-        v.push(s);
-        c.push(n as f64);
-    }
-    let pv: Vec<f64> = std::iter::once(0.0).chain(v.iter().scan(0.0, |a, x| { *a += x; Some(*a) })).collect();
-    let pc: Vec<f64> = std::iter::once(0.0).chain(c.iter().scan(0.0, |a, x| { *a += x; Some(*a) })).collect();
-    let (vt, ct) = (pv[nb], pc[nb]);
-    if vt <= 0.0 || ct <= 0.0 {
-        return none;
-    }
-    let ll = |v: f64, n: f64| if n > 0.0 && v > 0.0 { n * (v / n).ln() } else { 0.0 };
-    let total = ll(vt, ct);
-    let mut best = none;
-    for s in 0..nb {
-        for e in s + 1..=nb {
-            if e - s == nb {
-                continue;
-            }
-            let (vi, ci) = (pv[e] - pv[s], pc[e] - pc[s]);
-            let (vo, co) = (vt - vi, ct - ci);
-            let llr = 0.5 * (total - ll(vi, ci) - ll(vo, co));
-            if llr > best.strength && ci > 0.0 && co > 0.0 {
-                let factor = ((vi / ci) / (vo / co)).sqrt();
-                best = Burst { start: s * b, end: e * b, factor, strength: llr };
+    let Some(path) = VariancePath::new(y, block_len(tau0)) else {
+        return Burst::NONE;
+    };
+    let nb = path.blocks();
+    let (pc, pv) = (&path.pc, &path.pv);
+    // (b − a) × (c − a) on path points: > 0 when a → b → c turns left.
+    let cross = |a: usize, b: usize, c: usize| {
+        (pc[b] - pc[a]) * (pv[c] - pv[a]) - (pv[b] - pv[a]) * (pc[c] - pc[a])
+    };
+    // Stacks of path indices, the newest (leftmost) point on top. Collinear and repeated points
+    // are dropped (a convex function on a segment peaks at an end), the lower index kept.
+    let (mut lower, mut upper): (Vec<usize>, Vec<usize>) = (Vec::new(), Vec::new());
+    let mut best = Burst::NONE;
+    let mut best_span = (usize::MAX, usize::MAX);
+    for s in (0..nb).rev() {
+        let p = s + 1;
+        while lower.len() >= 2 && cross(p, lower[lower.len() - 1], lower[lower.len() - 2]) <= 0.0 {
+            lower.pop();
+        }
+        lower.push(p);
+        while upper.len() >= 2 && cross(p, upper[upper.len() - 1], upper[upper.len() - 2]) >= 0.0 {
+            upper.pop();
+        }
+        upper.push(p);
+        for &e in lower.iter().chain(&upper) {
+            let Some(burst) = path.score(s, e) else { continue };
+            // Ties go to the earliest span, as a scan in (s, e) order would report.
+            let tie = burst.strength == best.strength && (s, e) < best_span;
+            if burst.strength > best.strength || (tie && burst.strength > 0.0) {
+                best = burst;
+                best_span = (s, e);
             }
         }
     }
     best
+}
+
+/// The cumulative path of per-block half squared first differences and their counts, the input
+/// of [`find_burst`].
+struct VariancePath {
+    /// Samples per block.
+    b: usize,
+    /// Σ vⱼ for j < k, k = 0..=nb.
+    pv: Vec<f64>,
+    /// Σ nⱼ for j < k.
+    pc: Vec<f64>,
+    /// n·ln(V/n) of the whole record.
+    total: f64,
+}
+
+impl VariancePath {
+    /// The path of `y` in blocks of `b` samples; `None` under 4 blocks or without spread.
+    fn new(y: &[f64], b: usize) -> Option<Self> {
+        let nb = y.len() / b;
+        if nb < 4 {
+            return None;
+        }
+        let (mut pv, mut pc) = (Vec::with_capacity(nb + 1), Vec::with_capacity(nb + 1));
+        let (mut sv, mut sc) = (0.0, 0.0);
+        pv.push(sv);
+        pc.push(sc);
+        for k in 0..nb {
+            let blk = &y[k * b..((k + 1) * b + 1).min(y.len())];
+            let (s, n) = blk
+                .windows(2)
+                .filter(|p| p[0].is_finite() && p[1].is_finite())
+                .fold((0.0, 0usize), |(s, n), p| (s + 0.5 * (p[1] - p[0]).powi(2), n + 1));
+            sv += s;
+            sc += n as f64;
+            pv.push(sv);
+            pc.push(sc);
+        }
+        if sv <= 0.0 || sc <= 0.0 {
+            return None;
+        }
+        Some(VariancePath { b, pv, pc, total: ll(sv, sc) })
+    }
+
+    fn blocks(&self) -> usize {
+        self.pv.len() - 1
+    }
+
+    /// The span of blocks [s, e) as a burst; `None` for the whole record or an empty side.
+    fn score(&self, s: usize, e: usize) -> Option<Burst> {
+        let nb = self.blocks();
+        let (vt, ct) = (self.pv[nb], self.pc[nb]);
+        let (vi, ci) = (self.pv[e] - self.pv[s], self.pc[e] - self.pc[s]);
+        let (vo, co) = (vt - vi, ct - ci);
+        if e - s == nb || ci <= 0.0 || co <= 0.0 {
+            return None;
+        }
+        Some(Burst {
+            start: s * self.b,
+            end: e * self.b,
+            factor: ((vi / ci) / (vo / co)).sqrt(),
+            strength: 0.5 * (self.total - ll(vi, ci) - ll(vo, co)),
+        })
+    }
+}
+
+/// n·ln(V/n), 0 for an empty or constant part.
+fn ll(v: f64, n: f64) -> f64 {
+    if n > 0.0 && v > 0.0 {
+        n * (v / n).ln()
+    } else {
+        0.0
+    }
 }
 
 /// Scales the fast part of `span` down by `factor` around a 30 s moving mean (the slow part).
@@ -924,6 +1013,49 @@ mod tests {
         let s = step_scan(&y, &spectrum).unwrap();
         assert!(s.p_value < 1e-6 && (s.index as i64 - 25_000).abs() < s.window as i64 / 2, "{s:?}");
         assert!((s.size - size).abs() < 2.0 * s.sigma, "{s:?}");
+    }
+
+    /// The definition: every span of blocks scored, the first maximum kept.
+    fn burst_by_all_spans(y: &[f64], tau0: f64) -> Burst {
+        let Some(path) = VariancePath::new(y, block_len(tau0)) else {
+            return Burst::NONE;
+        };
+        let nb = path.blocks();
+        let mut best = Burst::NONE;
+        for s in 0..nb {
+            for e in s + 1..=nb {
+                match path.score(s, e) {
+                    Some(b) if b.strength > best.strength => best = b,
+                    _ => {}
+                }
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn hull_search_equals_the_search_over_every_span() {
+        // Seeded records of 2–20 min at 100 Hz: plain noise, bursts and quiet spans of every
+        // length and place, a noise level ramping over the record, NaN runs, a leading gap.
+        for seed in 0..40u64 {
+            let n = 100 * (120 + 60 * (seed as usize % 19));
+            let mut y = noise(n, 100 + seed);
+            let extra = noise(n, 200 + seed);
+            let (a, len) = ((seed as usize * 7919) % n, 100 * (1 + (seed as usize * 31) % 300));
+            let factor = [1.0, 3.0, 0.5, 1.3, 1.1][seed as usize % 5];
+            for i in a..(a + len).min(n) {
+                y[i] = y[i] * factor + 0.1 * extra[i];
+            }
+            if seed % 4 == 1 {
+                y.iter_mut().enumerate().for_each(|(i, v)| *v *= 1.0 + i as f64 / n as f64);
+            }
+            if seed % 6 == 2 {
+                y[..350].iter_mut().for_each(|v| *v = f64::NAN);
+                y[n / 2..n / 2 + 700].iter_mut().for_each(|v| *v = f64::NAN);
+            }
+            let (fast, slow) = (find_burst(&y, 0.01), burst_by_all_spans(&y, 0.01));
+            assert_eq!(fast, slow, "seed {seed}");
+        }
     }
 
     #[test]

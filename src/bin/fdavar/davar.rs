@@ -1,8 +1,15 @@
-//! `fdavar davar FILE|BAG [--axis A] [--params X.yaml] [--json|--csv]`: the F-DAVAR surface offline.
+//! `fdavar davar FILE|BAG [--axis A] [--params X.yaml] [--json|--csv] [--every S]`: the F-DAVAR
+//! surface offline.
 //!
 //! Reads the input, validates the parameters into a [`DavarConfig`], runs
 //! [`fdavar::pipeline::Pipeline`] (the same path the node runs live) and prints rows and change
 //! events. Text files are read by [`fdavar::signal::text`], bags by [`fdavar::bag`].
+//!
+//! A bag is streamed: samples go from the reader through the pipeline to the output one by one,
+//! so memory does not grow with the recording (issue 9, Build 5). `sigma_ref.mode: record` needs
+//! the whole record's variance before the first row; the bag is then read three times (mean,
+//! squared deviations, rows) rather than held: the variance is the in-memory two-pass one, bit for
+//! bit, and a second read costs less than the analysis.
 
 use crate::Outcome;
 use anyhow::{bail, Context};
@@ -47,22 +54,87 @@ pub struct Args {
     /// Print CSV, one line per (row, tau).
     #[arg(long)]
     pub csv: bool,
-    /// Print every N-th row only (events are found from all rows).
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
-    pub every: u64,
+    /// Print one row per axis every SECONDS of analysis time: the first row of each axis in each
+    /// interval [k·SECONDS, (k+1)·SECONDS) from the first sample, seconds (default: every row).
+    /// Events and the summary are found from all rows.
+    #[arg(long, value_name = "SECONDS", value_parser = positive_seconds)]
+    pub every: Option<f64>,
+}
+
+fn positive_seconds(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("expected a positive number of seconds, got '{s}'")),
+    }
 }
 
 /// A validated run: what to read, how to analyse it.
 struct RunConfig {
     config: DavarConfig,
-    samples: Vec<ImuSample>,
+    input: Input,
     axes: Vec<Axis>,
+}
+
+/// Where the samples come from; [`Input::each_sample`] reads them again on every call.
+enum Input {
+    /// A rosbag2 recording and its Imu topic (resolved).
+    Bag { path: PathBuf, topic: String },
+    /// The values of a text file (8 B each: the file's one column) as one axis at period `tau0`.
+    Text { values: Vec<f64>, axis: Axis, tau0: f64 },
+}
+
+impl Input {
+    /// Feeds every sample, in file order, to `f`.
+    fn each_sample(
+        &self,
+        f: &mut dyn FnMut(&ImuSample) -> anyhow::Result<()>,
+    ) -> anyhow::Result<()> {
+        match self {
+            Input::Bag { path, topic } => {
+                let bag = fdavar::bag::BagReader::open(path)
+                    .with_context(|| format!("cannot open bag {}", path.display()))?;
+                let mut count = 0u64;
+                for message in bag.messages(topic, None)? {
+                    if let fdavar::bag::BagMessage::Imu { sample, .. } =
+                        message.with_context(|| format!("reading {topic} from {}", path.display()))?
+                    {
+                        count += 1;
+                        f(&sample)?;
+                    }
+                }
+                if count == 0 {
+                    bail!("{}: topic {topic} holds no messages", path.display());
+                }
+                Ok(())
+            }
+            Input::Text { values, axis, tau0 } => {
+                for (k, &v) in values.iter().enumerate() {
+                    let mut s = ImuSample {
+                        stamp_ns: (k as f64 * tau0 * 1e9).round() as i64,
+                        gyro: [f64::NAN; 3],
+                        accel: [f64::NAN; 3],
+                    };
+                    match axis.index() {
+                        i @ 0..=2 => s.gyro[i] = v,
+                        i => s.accel[i - 3] = v,
+                    }
+                    f(&s)?;
+                }
+                Ok(())
+            }
+        }
+    }
 }
 
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let run = validate(args)?;
     let record = match run.config.sigma_ref {
-        SigmaRefMode::Record => Some(fdavar::pipeline::record_variances(&run.samples)),
+        SigmaRefMode::Record => Some(fdavar::pipeline::record_variances_in_two_passes(|f| {
+            run.input.each_sample(&mut |s| {
+                f(s);
+                Ok(())
+            })
+        })?),
         _ => None,
     };
     let mut pipeline = Pipeline::new(run.config.clone(), &run.axes, record)
@@ -81,16 +153,18 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         axes: BTreeMap::new(),
     };
     printer.begin().context("writing output")?;
-    // Rows are printed as they come: a long recording never holds its DAVAR surface in memory.
+    // Samples stream from the input and rows are printed as they come: a long recording is held
+    // neither as samples nor as its DAVAR surface.
     let mut out = Output::default();
     let mut events = Vec::new();
-    for s in &run.samples {
+    run.input.each_sample(&mut |s| {
         pipeline.push(s, &mut out);
         for row in out.rows.drain(..) {
             printer.row(&row).context("writing output")?;
         }
         events.append(&mut out.events);
-    }
+        Ok(())
+    })?;
     pipeline.finish(&mut out);
     for row in out.rows.drain(..) {
         printer.row(&row).context("writing output")?;
@@ -120,6 +194,8 @@ enum Format {
 #[derive(Debug, Clone, Copy)]
 struct AxisSummary {
     rows: u64,
+    /// The `--every` interval of the last printed row.
+    last_slot: Option<i64>,
     first_s: f64,
     last_s: f64,
     window_min: usize,
@@ -130,7 +206,7 @@ struct AxisSummary {
 struct Printer<W: Write> {
     w: W,
     format: Format,
-    every: u64,
+    every: Option<f64>,
     printed: u64,
     axes: BTreeMap<Axis, AxisSummary>,
 }
@@ -150,6 +226,7 @@ impl<W: Write> Printer<W> {
     fn row(&mut self, r: &AxisRow) -> std::io::Result<()> {
         let s = self.axes.entry(r.axis).or_insert(AxisSummary {
             rows: 0,
+            last_slot: None,
             first_s: r.time_s,
             last_s: r.time_s,
             window_min: r.row.window,
@@ -159,8 +236,12 @@ impl<W: Write> Printer<W> {
         s.last_s = r.time_s;
         s.window_min = s.window_min.min(r.row.window);
         s.window_max = s.window_max.max(r.row.window);
-        if !r.row.index.is_multiple_of(self.every) {
-            return Ok(());
+        if let Some(every) = self.every {
+            let slot = (r.time_s / every).floor() as i64;
+            if s.last_slot == Some(slot) {
+                return Ok(());
+            }
+            s.last_slot = Some(slot);
         }
         match self.format {
             Format::Json => {
@@ -200,7 +281,10 @@ impl<W: Write> Printer<W> {
     }
 
     fn write_summary(&mut self, p: &Pipeline, events: &[AxisEvent]) -> std::io::Result<()> {
-        writeln!(self.w, "tau0: {:?} s", p.tau0())?;
+        match p.tau0() {
+            Some(tau0) => writeln!(self.w, "tau0: {tau0} s")?,
+            None => writeln!(self.w, "tau0: unknown (too few samples)")?,
+        }
         for (axis, s) in &self.axes {
             writeln!(
                 self.w,
@@ -236,14 +320,17 @@ fn validate(args: &Args) -> anyhow::Result<RunConfig> {
         None => DavarConfig::default(),
     };
     if is_bag(&args.input) {
-        let samples = read_bag(&args.input, args.topic.as_deref())?;
         if let Some(rate) = args.rate {
             bail!("--rate {rate} is for text files; a bag's period comes from its stamps (or the tau0 parameter)");
         }
+        let path = args.input.clone();
+        let bag = fdavar::bag::BagReader::open(&path)
+            .with_context(|| format!("cannot open bag {}", path.display()))?;
+        let topic = bag.imu_topic(args.topic.as_deref())?.name.clone();
         let axes = args.axis.map_or_else(|| Axis::ALL.to_vec(), |a| vec![a]);
         return Ok(RunConfig {
             config,
-            samples,
+            input: Input::Bag { path, topic },
             axes,
         });
     }
@@ -258,46 +345,11 @@ fn validate(args: &Args) -> anyhow::Result<RunConfig> {
     )?;
     let axis = args.axis.unwrap_or(Axis::GyroX);
     let values = fdavar::signal::text::read_column(&args.input, args.column.as_ref())?;
-    let samples = values
-        .iter()
-        .enumerate()
-        .map(|(k, &v)| {
-            let mut s = ImuSample {
-                stamp_ns: (k as f64 * tau0 * 1e9).round() as i64,
-                gyro: [f64::NAN; 3],
-                accel: [f64::NAN; 3],
-            };
-            match axis.index() {
-                i @ 0..=2 => s.gyro[i] = v,
-                i => s.accel[i - 3] = v,
-            }
-            s
-        })
-        .collect();
     Ok(RunConfig {
         config,
-        samples,
+        input: Input::Text { values, axis, tau0 },
         axes: vec![axis],
     })
-}
-
-/// The Imu samples of a bag, in file order.
-fn read_bag(path: &Path, topic: Option<&str>) -> anyhow::Result<Vec<ImuSample>> {
-    let bag = fdavar::bag::BagReader::open(path)
-        .with_context(|| format!("cannot open bag {}", path.display()))?;
-    let topic = bag.imu_topic(topic)?.name.clone();
-    let mut samples = Vec::new();
-    for message in bag.messages(&topic, None)? {
-        if let fdavar::bag::BagMessage::Imu { sample, .. } =
-            message.with_context(|| format!("reading {topic} from {}", path.display()))?
-        {
-            samples.push(sample);
-        }
-    }
-    if samples.is_empty() {
-        bail!("{}: topic {topic} holds no messages", path.display());
-    }
-    Ok(samples)
 }
 
 fn is_bag(path: &Path) -> bool {
@@ -359,12 +411,15 @@ mod tests {
 
     #[test]
     fn flags_parse() {
-        let cli = Cli::try_parse_from(["x", "f.txt", "--rate", "100", "--json", "--every", "10"])
+        let cli = Cli::try_parse_from(["x", "f.txt", "--rate", "100", "--json", "--every", "0.5"])
             .unwrap();
         assert_eq!(cli.args.rate, Some(100.0));
+        assert_eq!(cli.args.every, Some(0.5));
         assert!(cli.args.json);
         assert!(Cli::try_parse_from(["x", "f.txt", "--json", "--csv"]).is_err());
-        assert!(Cli::try_parse_from(["x", "f.txt", "--every", "0"]).is_err());
+        for bad in ["0", "-1", "inf", "NaN", "1s"] {
+            assert!(Cli::try_parse_from(["x", "f.txt", "--every", bad]).is_err(), "{bad}");
+        }
         assert!(Cli::try_parse_from(["x", "f.txt", "--axis", "gyro_w"]).is_err());
     }
 }

@@ -16,20 +16,21 @@ use fdavar::signal::Axis;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// fit_error above which a model is reported as failing (exit code 3).
+/// fit_error above which a model is reported as failing (a warning; exit 3 with `--strict`).
 pub const FAILING_FIT_ERROR: f64 = 2.0;
 
 /// Fit a noise model to each axis of a rosbag2 recording.
 ///
 /// Prints per axis the coefficients (SI and the seed's display units), fit_error (RMS of
 /// z = (σ²_meas − σ²_model)/(σ²_model·√(2/EDF)); about 1 when the model explains the data) and
-/// the τ ranges where |z| > 3. Exits 3 when a model fails (fit_error > 2).
+/// the τ ranges where |z| > 3. A failing model (fit_error > 2) is a warning, exit 0 (exit 3 with
+/// --strict); samples left out (gaps, bad stamps, NaN/Inf) exit 3.
 #[derive(Debug, clap::Args, PartialEq)]
 pub struct Args {
     /// rosbag2 recording: a bag directory, a .mcap or a .db3.
     pub bag: PathBuf,
     /// Model: comma-separated effect ids or aliases, e.g. N,B,K,sinusoid.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::model_spec_arg)]
     pub model: String,
     #[command(flatten)]
     pub common: Common,
@@ -50,6 +51,10 @@ pub struct Common {
     /// Directory for figures (PNG + SVG per axis).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Exit 3 when a model fails (fit_error > 2), for CI; without it a failing model is the
+    /// finding: a warning on stderr and exit 0.
+    #[arg(long)]
+    pub strict: bool,
 }
 
 impl Common {
@@ -91,11 +96,13 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
                 .with_context(|| format!("cannot write the figure of {}", f.axis))?;
         }
     }
-    Ok(outcome(&rec, &fits))
+    Ok(outcome(&rec, &fits, args.common.strict, "`fdavar diagnose` suggests what is missing"))
 }
 
-/// Exit 3 when a model fails or the recording had irregularities (already reported on stderr).
-pub fn outcome(rec: &Recording, fits: &[FittedModel]) -> Outcome {
+/// Warns on stderr about samples left out and failing models (`hint`: what to do next), and
+/// decides the exit: 3 when samples were left out, or when a model fails and `strict`; a failing
+/// model alone is the finding, not a fault (exit 0).
+pub fn outcome(rec: &Recording, fits: &[FittedModel], strict: bool, hint: &str) -> Outcome {
     let irr = rec.irregularities;
     let irregular = irr.gaps + irr.duplicates + irr.backwards + irr.non_finite;
     if irregular > 0 {
@@ -111,11 +118,11 @@ pub fn outcome(rec: &Recording, fits: &[FittedModel]) -> Outcome {
         .collect();
     if !failing.is_empty() {
         eprintln!(
-            "fdavar: warning: the model fails on {} (fit_error > {FAILING_FIT_ERROR}); `fdavar diagnose` suggests what is missing",
+            "fdavar: warning: the model fails on {} (fit_error > {FAILING_FIT_ERROR}); {hint}",
             failing.join(", ")
         );
     }
-    if irregular > 0 || !failing.is_empty() {
+    if irregular > 0 || (strict && !failing.is_empty()) {
         Outcome::Warnings
     } else {
         Outcome::Ok

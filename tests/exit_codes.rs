@@ -196,6 +196,27 @@ fn info_exit_codes() {
     expect_usage(&["info"], &["<BAG>"]);
 }
 
+#[test]
+fn export_exit_codes() {
+    let dir = tempfile::tempdir().unwrap();
+    let gap = gap_bag(dir.path());
+    let gap = gap.to_str().unwrap();
+    expect(&["export", "kalibr", CLEAN], 0, &[]);
+    // A failing model still exports (its numbers are the finding's), with the fit's warning.
+    let misfit: (&str, &[&str]) = ("fdavar: warning: the model fails on ", &["gyro_x", "fit_error > 2"]);
+    expect(&["export", "vins", EFFECTS], 0, &[misfit]);
+    // 3: samples left out; and the bag is white noise only, so no gyro axis resolves K.
+    let unresolved: (&str, &[&str]) = ("fdavar: warning: gyroscope_random_walk written as 0", &["set it by hand"]);
+    expect(&["export", "openvins", gap, "--inflate", "10"], 3, &[GAP_LINE, unresolved]);
+    expect_error(&["export", "kalibr", "no/such/bag"], &["no/such/bag"]);
+    expect_error(&["export", "kalibr", CLEAN, "--topic", "/nope"], &["/nope"]);
+    expect_usage(&["export", "rovio", CLEAN], &["rovio", "kalibr, openvins, vins"]);
+    expect_usage(&["export", "kalibr", CLEAN, "--model", "N,Bogus"], &["unknown effect 'Bogus'"]);
+    // Usage errors found once the input is read: one `fdavar: error:` line, exit 2.
+    expect(&["export", "kalibr", CLEAN, "--model", "B,K"], 2, &[("fdavar: error: --model B,K", &["N (white)"])]);
+    expect(&["export", "kalibr", CLEAN, "--inflate=-1"], 2, &[("fdavar: error: --inflate", &["-1"])]);
+}
+
 /// Without DDS only the failures that come before the first publisher: a missing bag (1) and
 /// a usage error (2). 0 and 3 need a DDS peer (tests/ros_interop.rs).
 #[cfg(feature = "ros")]

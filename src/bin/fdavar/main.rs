@@ -7,6 +7,7 @@
 mod allan;
 mod davar;
 mod diagnose;
+mod export;
 mod fit;
 mod info;
 #[cfg(feature = "ros")]
@@ -75,6 +76,7 @@ enum Command {
     Davar(davar::Args),
     Fit(fit::Args),
     Diagnose(diagnose::Args),
+    Export(export::Args),
     Simulate(simulate::Args),
     #[cfg(feature = "ros")]
     Play(play::Args),
@@ -95,6 +97,7 @@ fn main() -> ExitCode {
         Command::Davar(a) => davar::run(a),
         Command::Fit(a) => fit::run(a),
         Command::Diagnose(a) => diagnose::run(a),
+        Command::Export(a) => export::run(a),
         Command::Simulate(a) => simulate::run(a),
         #[cfg(feature = "ros")]
         Command::Play(a) => play::run(a),

@@ -42,7 +42,7 @@ pub struct AxisState {
     pub row: Vec<DavarPoint>,
     /// Fitted coefficients of the model in force.
     pub coefficients: Vec<Coefficient>,
-    /// RMS normalised residual over the τ grid (DESIGN §5).
+    /// RMS normalised residual over the τ grid (docs/design.md §5).
     pub fit_error: f64,
     /// Maximal τ intervals where |z| > 3.
     pub failing_tau: Vec<TauInterval>,

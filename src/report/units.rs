@@ -71,7 +71,7 @@ impl Coefficient {
         Coefficient::Ramp,
     ];
 
-    /// The coefficient of an effect id or alias of DESIGN.md §4 (`white` or `N`, …).
+    /// The coefficient of an effect id or alias of docs/design.md §4 (`white` or `N`, …).
     pub fn from_effect(name: &str) -> Option<Coefficient> {
         match name {
             "quantization" | "Q" => Some(Coefficient::Quantization),

@@ -45,7 +45,7 @@ pub struct Common {
     /// Axis to analyse (repeatable; default: all six).
     #[arg(long)]
     pub axis: Vec<Axis>,
-    /// Print one JSON object (DESIGN §7) instead of a table.
+    /// Print one JSON object (docs/design.md §7) instead of a table.
     #[arg(long)]
     pub json: bool,
     /// Directory for figures (PNG + SVG per axis).

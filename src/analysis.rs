@@ -133,6 +133,11 @@ impl Analysis {
         self.messages
     }
 
+    /// The input's sample period τ0, s, once known.
+    pub fn sample_period_s(&self) -> Option<f64> {
+        self.record.input_tau0()
+    }
+
     /// The period of the DAVAR rows, once known.
     pub fn row_tau0(&self) -> Option<f64> {
         self.rows.as_ref().and_then(Pipeline::tau0)

@@ -1,7 +1,7 @@
 //! The seed's change-point experiment as a regression test, through the public pipeline with the
 //! default parameters (adaptive `sign`, F̃ auto, default detector) and the whole-record σ²_ref.
 //!
-//! Truth: noise deviation ×3 from sample 1200 to 2400 of 3600 (τ0 = 30 ms). Aim (DESIGN §3):
+//! Truth: noise deviation ×3 from sample 1200 to 2400 of 3600 (τ0 = 30 ms). Aim (docs/design.md §3):
 //! median onset and end within ±30 samples; no event outside the change. The full table over 100
 //! seeds and all policies is `cargo run --release --example seed_experiment`.
 

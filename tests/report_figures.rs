@@ -1,7 +1,7 @@
 //! Figure writers: files exist, have the documented size, carry their axis titles, and bad input
 //! is a named error, never a panic.
 //!
-//! The inputs are synthetic: Allan deviations from the IEEE 952 closed forms of DESIGN.md §4 with
+//! The inputs are synthetic: Allan deviations from the IEEE 952 closed forms of docs/design.md §4 with
 //! seeded χ²-like scatter, a DAVAR surface of white noise with a ×3 burst, and an F-value trace
 //! computed from seeded white noise. Set `FDAVAR_REPORT_GALLERY=DIR` to keep the figures in DIR
 //! (that is how `docs/img/` was made); otherwise they go to a temporary directory.
@@ -85,7 +85,7 @@ fn measured(rng: &mut ChaCha8Rng) -> Vec<MeasuredPoint> {
         .collect()
 }
 
-/// The model curves for a set of terms, with z and failing τ per DESIGN.md §5.
+/// The model curves for a set of terms, with z and failing τ per docs/design.md §5.
 /// A named Allan-variance term σ²(τ).
 type AvarTerm = (&'static str, fn(f64) -> f64);
 

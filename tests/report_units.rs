@@ -11,7 +11,8 @@
 //! - imu_noise_params.md: "ARW [deg/sqrt(h)] = N [deg/s/sqrt(Hz)] · 60"; the ADIS16448 gyro
 //!   N = 1.6968e-4 rad/s/√Hz → 1.6968e-4 · 57.2958 · 60 = 0.583 317 °/√h.
 use fdavar::report::table::{sig, Table};
-use fdavar::report::units::{kalibr_yaml, Coefficient, KalibrImu, Sensor};
+use fdavar::report::export::{ExportFormat, ImuNoise};
+use fdavar::report::units::{Coefficient, KalibrImu, Sensor};
 use proptest::prelude::*;
 
 /// Relative tolerance: the hand values above are rounded to 6 significant digits.
@@ -101,23 +102,22 @@ fn kalibr_terms_are_si_n_and_k() {
     // σ_d = 1.6968e-4 · √200 = 2.39964e-3; σ_bd = 1.9393e-5 / √200 = 1.37129e-6.
     assert!(close(gyro.discrete_noise(200.0), 2.39964e-3));
     assert!(close(gyro.discrete_random_walk(200.0), 1.37129e-6));
-    let accel = KalibrImu::from_si(2.0e-3, 3.0e-3);
-    let yaml = kalibr_yaml(&gyro, &accel, "/imu0", 200.0);
-    assert!(
-        yaml.contains("gyroscope_noise_density: 1.696800e-4"),
-        "{yaml}"
-    );
-    assert!(
-        yaml.contains("accelerometer_random_walk: 3.000000e-3"),
-        "{yaml}"
-    );
-    assert!(
-        yaml.contains("rostopic: /imu0\nupdate_rate: 200\n"),
-        "{yaml}"
-    );
-    // It is YAML a parser accepts, with the numbers intact.
+    // The imu.yaml of these numbers (report::export writes it; tests/export_cli.rs checks the
+    // files against their readers' keys and PyYAML).
+    let noise = ImuNoise {
+        gyro,
+        accel: KalibrImu::from_si(2.0e-3, 3.0e-3),
+        topic: "/imu0".into(),
+        rate_hz: Some(200.0),
+        inflation: 1.0,
+    };
+    let yaml = noise.to_yaml(ExportFormat::Kalibr).unwrap();
     let parsed: serde_yaml_ng::Value = serde_yaml_ng::from_str(&yaml).unwrap();
-    assert_eq!(parsed["gyroscope_random_walk"].as_f64(), Some(1.9393e-5));
+    assert_eq!(parsed["gyroscope_noise_density"].as_f64(), Some(1.6968e-4), "{yaml}");
+    assert_eq!(parsed["gyroscope_random_walk"].as_f64(), Some(1.9393e-5), "{yaml}");
+    assert_eq!(parsed["accelerometer_random_walk"].as_f64(), Some(3.0e-3), "{yaml}");
+    assert_eq!(parsed["rostopic"].as_str(), Some("/imu0"), "{yaml}");
+    assert_eq!(parsed["update_rate"].as_f64(), Some(200.0), "{yaml}");
 }
 
 #[test]

@@ -22,7 +22,7 @@ pub enum TauGrid {
 }
 
 impl Default for TauGrid {
-    /// Ten per decade (DESIGN §2).
+    /// Ten per decade (docs/design.md §2).
     fn default() -> Self {
         TauGrid::PerDecade(10)
     }

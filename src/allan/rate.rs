@@ -1,6 +1,6 @@
 //! Overlapping Allan variance of IMU rate data in which NaN marks an invalid or missing sample.
 //!
-//! IMU records have gaps, dropped messages and bad values (DESIGN §1). Rather than bridging them,
+//! IMU records have gaps, dropped messages and bad values (docs/design.md §1). Rather than bridging them,
 //! every Allan term whose 2m rate samples include an invalid one is left out and counted, so the
 //! estimate uses only real data and the caller can publish how much was dropped.
 //!

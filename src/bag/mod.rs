@@ -20,7 +20,7 @@
 //!   `metadata.yaml`, which a crashed recording lacks or has stale. `metadata.yaml` is used for
 //!   what only it knows: the list of split files and their file-level compression.
 //! - **Sample time = `header.stamp`** (the sensor clock); the log (receive) time only when the
-//!   stamp is zero (DESIGN §1). Both are handed out: [`BagMessage`] carries the log time too.
+//!   stamp is zero (docs/design.md §1). Both are handed out: [`BagMessage`] carries the log time too.
 //! - **Errors name the place**: the file, the topic, the log time of a malformed message; a bag
 //!   without Imu lists what it does hold.
 

@@ -17,7 +17,7 @@
 //! each behind the stamp checks; [`crate::params`] builds their configuration from a ROS 2
 //! parameter file.
 //!
-//! The open points of the seed (DESIGN §3) are decided in [`reference`] (σ²_ref and F̃), in
+//! The open points of the seed (docs/design.md §3) are decided in [`mod@reference`] (σ²_ref and F̃), in
 //! [`adaptive`] (Eq. 3 kept exactly; proportional step added), in [`engine`] (window placement,
 //! rebasing) and in [`events`] (what a change point is).
 //!

@@ -1,6 +1,6 @@
 //! The two references of the F value: σ²_ref (its denominator) and F̃ (its steady target).
 //!
-//! DESIGN §3 open point 1: the seed's σ²_ref is "the overall variance" of the record. Offline that
+//! docs/design.md §3 open point 1: the seed's σ²_ref is "the overall variance" of the record. Offline that
 //! is the whole record ([`record_variance`], then [`SigmaRef::Value`]: seed-exact). Live there is no
 //! whole record, so [`SigmaRef::Running`] (all valid samples so far) and [`SigmaRef::Baseline`]
 //! (the first N valid samples, then frozen) are offered.
@@ -37,7 +37,7 @@ pub enum SigmaRef {
 /// ```text
 /// σ² = (1/n) Σ (y[i] − ȳ)²
 /// ```
-/// over the n finite values y[i] with mean ȳ (two passes, so no cancellation).
+/// over the n finite values y\[i\] with mean ȳ (two passes, so no cancellation).
 ///
 /// ```
 /// let v = fdavar::davar::record_variance(&[1.0, f64::NAN, 3.0]).unwrap();

@@ -192,6 +192,12 @@ impl RecordBuilder {
         self.last_stamp_ns
     }
 
+    /// The input's sample period τ0, s, once known (the record's own period doubles when it is
+    /// halved; this one does not).
+    pub fn input_tau0(&self) -> Option<f64> {
+        self.intake.tau0()
+    }
+
     /// Stamp of the first sample placed, ns.
     pub fn first_stamp_ns(&self) -> Option<i64> {
         self.intake.first_stamp_ns()

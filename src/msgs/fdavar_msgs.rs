@@ -44,7 +44,7 @@ pub struct AxisState {
     pub model: Vec<String>,
     /// Its coefficients fitted to the whole run, with 1σ.
     pub coefficients: Vec<Coefficient>,
-    /// RMS normalised residual over the τ grid of the whole run and its spans (DESIGN §5).
+    /// RMS normalised residual over the τ grid of the whole run and its spans (docs/design.md §5).
     pub fit_error: f64,
     /// Maximal τ intervals where |z| > 3.
     pub failing_tau: Vec<TauInterval>,

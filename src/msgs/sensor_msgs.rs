@@ -43,7 +43,7 @@ pub static IMU: MsgDef = MsgDef {
     type_hash: "RIHS01_7d9a00ff131080897a5ec7e26e315954b8eae3353c3f995c55faf71574000b5b",
 };
 
-/// The sample time of a header: its stamp, or `log_time_ns` when the stamp is zero (DESIGN §1).
+/// The sample time of a header: its stamp, or `log_time_ns` when the stamp is zero (docs/design.md §1).
 fn sample_time(stamp: Time, log_time_ns: i64) -> i64 {
     if stamp.is_zero() {
         log_time_ns
@@ -97,7 +97,7 @@ impl Imu {
 
 /// `sensor_msgs/msg/Temperature`: one temperature reading, °C.
 ///
-/// Read alongside the IMU to regress the `temperature` effect (DESIGN §4).
+/// Read alongside the IMU to regress the `temperature` effect (docs/design.md §4).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Temperature {
     /// Sensor time and frame.

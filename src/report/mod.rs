@@ -12,6 +12,7 @@
 //!   the seed's Figs. 3–4). Each writer produces `<stem>.png` and `<stem>.svg`.
 //! - [`units`]: SI coefficients to the seed's display units (Q µrad, N °/√h, B °/h, K °/h^1.5,
 //!   R °/h²) and to Kalibr's IMU noise terms.
+//! - [`export`]: the fitted N and K per sensor in Kalibr, OpenVINS and VINS-Fusion config keys.
 //! - [`table`]: aligned text tables and RFC 4180 CSV from the same rows; numbers formatted to
 //!   significant digits.
 //!
@@ -21,6 +22,7 @@
 //! feature, looks fonts up on the system and fails on a bare CI image.
 use std::path::PathBuf;
 
+pub mod export;
 pub mod figure;
 pub mod table;
 pub mod units;

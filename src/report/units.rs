@@ -9,7 +9,8 @@
 //!
 //! Kalibr (and most VIO configs: OpenVINS, VINS-Mono, ORB-SLAM3) wants the continuous-time noise
 //! density and random walk, which *are* the SI N and K: rad/s/√Hz = rad/√s and rad/s²/√Hz =
-//! rad/s/√s. [`KalibrImu`] makes that explicit and gives the per-sample discrete values.
+//! rad/s/√s. [`KalibrImu`] makes that explicit and gives the per-sample discrete values;
+//! [`crate::report::export`] writes them in each estimator's config keys.
 //!
 //! # References
 //! - IEEE Std 952-1997, Annex C (gyro noise terms and their units).
@@ -17,7 +18,6 @@
 //! - Furgale P., Rehder J., Siegwart R., "Unified temporal and spatial calibration for multi-sensor
 //!   systems", IROS 2013 (Kalibr); Kalibr wiki "IMU Noise Model".
 use std::f64::consts::PI;
-use std::fmt::Write as _;
 
 use serde::{Deserialize, Serialize};
 
@@ -71,7 +71,7 @@ impl Coefficient {
         Coefficient::Ramp,
     ];
 
-    /// The coefficient of an effect id or alias of DESIGN.md §4 (`white` or `N`, …).
+    /// The coefficient of an effect id or alias of docs/design.md §4 (`white` or `N`, …).
     pub fn from_effect(name: &str) -> Option<Coefficient> {
         match name {
             "quantization" | "Q" => Some(Coefficient::Quantization),
@@ -219,40 +219,4 @@ impl KalibrImu {
     pub fn discrete_random_walk(&self, rate_hz: f64) -> f64 {
         self.random_walk / rate_hz.sqrt()
     }
-}
-
-/// A Kalibr `imu.yaml` (the `imu0` block of its IMU configuration) for one IMU.
-///
-/// `topic` is the ROS topic; `rate_hz` the update rate. Numbers are written with 6 significant
-/// digits; add a safety inflation yourself if your estimator needs one (Kalibr's docs suggest it
-/// for real-world effects this model does not cover).
-pub fn kalibr_yaml(gyro: &KalibrImu, accel: &KalibrImu, topic: &str, rate_hz: f64) -> String {
-    let mut s = String::new();
-    let mut line = |k: &str, v: f64, unit: &str| {
-        // Writing to a String cannot fail.
-        let _ = writeln!(s, "{k}: {v:.6e}  # {unit}");
-    };
-    line(
-        "accelerometer_noise_density",
-        accel.noise_density,
-        "m/s^2/sqrt(Hz)",
-    );
-    line(
-        "accelerometer_random_walk",
-        accel.random_walk,
-        "m/s^3/sqrt(Hz)",
-    );
-    line(
-        "gyroscope_noise_density",
-        gyro.noise_density,
-        "rad/s/sqrt(Hz)",
-    );
-    line(
-        "gyroscope_random_walk",
-        gyro.random_walk,
-        "rad/s^2/sqrt(Hz)",
-    );
-    let _ = writeln!(s, "rostopic: {topic}");
-    let _ = writeln!(s, "update_rate: {rate_hz}");
-    s
 }

@@ -1,8 +1,8 @@
 //! Imu messages become per-axis rate samples; stamps are checked and irregularities counted.
 //!
-//! Irregularities are facts to report, never to hide (DESIGN §1): a gap, a duplicated stamp, time
-//! going backwards or a NaN/Inf value is classified by [`StampCheck`] / [`SampleCheck`] and counted in
-//! [`Irregularities`]; the analysis leaves out the Allan terms that would straddle it.
+//! Irregularities are facts to report, never to hide (docs/design.md §1): a gap, a duplicated stamp, time
+//! going backwards is classified by [`StampCheck`] (a [`StampClass`]), a NaN/Inf value counted by
+//! [`StampCheck::count_non_finite`], and all of them in [`Irregularities`]; the analysis leaves out the Allan terms that would straddle it.
 //!
 //! No I/O and no ROS here: bag readers and the node convert their messages into [`ImuSample`].
 
@@ -165,7 +165,7 @@ pub struct Irregularities {
 /// Classifies each stamp against the previous accepted one.
 ///
 /// Why a separate type: the bag reader, the offline pipeline and the node all need the same rule
-/// (DESIGN §1: a gap is an interval > 1.5 τ0), and the same input must give the same counts live
+/// (docs/design.md §1: a gap is an interval > 1.5 τ0), and the same input must give the same counts live
 /// and offline.
 #[derive(Debug, Clone)]
 pub struct StampCheck {

@@ -1,6 +1,6 @@
 //! The nominal sample period τ0, estimated robustly from stamps.
 //!
-//! DESIGN §1: τ0 is the median of the positive stamp intervals. The median ignores gaps, duplicates
+//! docs/design.md §1: τ0 is the median of the positive stamp intervals. The median ignores gaps, duplicates
 //! and jitter that a mean would absorb. Live, [`PeriodEstimator`] settles on the median of the first
 //! intervals it sees and then keeps it, so that every later row uses one τ0.
 

@@ -15,21 +15,22 @@ use std::path::PathBuf;
 /// with their evidence: a temperature topic, the accel axes, a noise change) and suggests the
 /// gains that pay for their extra parameters, best first, with the fitted parameters and a
 /// sentence of physics. A model that already explains the data gets no suggestion.
-/// Exits 3 when a model fails (fit_error > 2).
+/// A failing model (fit_error > 2) is the finding: a warning, exit 0 (exit 3 with --strict);
+/// samples left out (gaps, bad stamps, NaN/Inf) exit 3.
 #[derive(Debug, clap::Args, PartialEq)]
 pub struct Args {
     /// rosbag2 recording: a bag directory, a .mcap or a .db3.
     pub bag: PathBuf,
     /// Model to start from: comma-separated effect ids or aliases for every axis, or AXIS=SPEC for
     /// one axis (repeatable; later values win). Default N,B,K.
-    #[arg(long, default_value = ModelSpec::DEFAULT)]
+    #[arg(long, default_value = ModelSpec::DEFAULT, value_parser = crate::model_spec_arg)]
     pub model: Vec<String>,
     #[command(flatten)]
     pub common: Common,
 }
 
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
-    let mut analysis = load(&args.bag, &args.model, &args.common)?;
+    let mut analysis = load(&args.bag, &args.model, args.common.topic.as_deref(), args.common.first)?;
     let mut diagnoses = Vec::new();
     for axis in args.common.axes() {
         let d = analysis
@@ -88,5 +89,5 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         }
     }
     let fits: Vec<_> = diagnoses.into_iter().map(|d| d.fit).collect();
-    Ok(outcome(&analysis, &fits))
+    Ok(outcome(&analysis, &fits, args.common.strict, "the suggestions per axis name what would explain it"))
 }

@@ -7,6 +7,7 @@
 mod allan;
 mod davar;
 mod diagnose;
+mod export;
 mod fit;
 mod info;
 #[cfg(feature = "ros")]
@@ -14,6 +15,7 @@ mod play;
 mod simulate;
 
 use clap::{Parser, Subcommand};
+use fdavar::model::{ModelSpec, SpecError};
 use std::process::ExitCode;
 
 /// Exit codes (also listed in `--help`).
@@ -27,8 +29,22 @@ const EXIT_WARNINGS: u8 = 3;
 pub enum Outcome {
     /// Everything as expected.
     Ok,
-    /// Finished, but with warnings already printed (gaps dropped, a poor fit, …).
+    /// Finished, but with warnings already printed (samples left out, a failing model under
+    /// `--strict`, …).
     Warnings,
+}
+
+/// An error in what the user asked for that only shows once the input is read (e.g. a flag the
+/// input does not supply a default for): exit 2 like clap's own usage errors.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct UsageError(pub String);
+
+/// clap value parser of `--model SPEC` and `--model AXIS=SPEC`: an unknown effect or axis is a
+/// usage error (exit 2), found before any work starts. Keeps the text, which the subcommand
+/// parses again with the others.
+pub fn model_spec_arg(s: &str) -> Result<String, SpecError> {
+    fdavar::model::spec::axis_models(&[s.to_string()], ModelSpec::DEFAULT).map(|_| s.to_string())
 }
 
 /// Adaptive-window dynamic Allan variance (F-DAVAR) of IMU noise, offline.
@@ -40,7 +56,14 @@ pub enum Outcome {
 #[command(
     name = "fdavar",
     version,
-    after_help = "Exit codes: 0 ok; 1 runtime error; 2 usage error; 3 finished with warnings.\n\
+    after_help = "Exit codes:\n  \
+                  0  ok; also when a model fails to explain the data: the misfit is the finding,\n     \
+                  printed as a warning (fit/diagnose --strict make it exit 3, for CI)\n  \
+                  1  runtime error (one line on stderr: fdavar: error: ...)\n  \
+                  2  usage error (unknown flag or value, e.g. an unknown --model effect)\n  \
+                  3  finished with warnings: samples left out (gaps, duplicate or backward\n     \
+                  stamps, NaN/Inf), the warning line on stderr says how many; or --strict and\n     \
+                  a model fails (fit_error > 2)\n\
                   Axes: gyro_x gyro_y gyro_z (rad/s), accel_x accel_y accel_z (m/s^2)."
 )]
 struct Cli {
@@ -54,6 +77,7 @@ enum Command {
     Davar(davar::Args),
     Fit(fit::Args),
     Diagnose(diagnose::Args),
+    Export(export::Args),
     Simulate(simulate::Args),
     #[cfg(feature = "ros")]
     Play(play::Args),
@@ -74,6 +98,7 @@ fn main() -> ExitCode {
         Command::Davar(a) => davar::run(a),
         Command::Fit(a) => fit::run(a),
         Command::Diagnose(a) => diagnose::run(a),
+        Command::Export(a) => export::run(a),
         Command::Simulate(a) => simulate::run(a),
         #[cfg(feature = "ros")]
         Command::Play(a) => play::run(a),
@@ -83,6 +108,10 @@ fn main() -> ExitCode {
         Ok(Outcome::Ok) => ExitCode::from(EXIT_OK),
         Ok(Outcome::Warnings) => ExitCode::from(EXIT_WARNINGS),
         Err(e) if is_broken_pipe(&e) => ExitCode::from(EXIT_OK),
+        Err(e) if e.chain().any(|c| c.is::<UsageError>()) => {
+            eprintln!("fdavar: error: {e:#}");
+            ExitCode::from(EXIT_USAGE)
+        }
         Err(e) => {
             eprintln!("fdavar: error: {e:#}");
             ExitCode::from(EXIT_ERROR)

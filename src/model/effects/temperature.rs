@@ -33,7 +33,7 @@ pub(super) static KIND: KindInfo = KindInfo {
 /// ```text
 /// y[n] += c·(T[n] − T[0])
 /// ```
-/// where c is `coefficient_per_k` (rad/s/K) and T[n] the temperature (°C) at sample n, so the
+/// where c is `coefficient_per_k` (rad/s/K) and T\[n\] the temperature (°C) at sample n, so the
 /// effect is zero at the first sample. Without a temperature signal the effect adds nothing (the
 /// simulator refuses such a spec).
 ///

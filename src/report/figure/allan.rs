@@ -35,7 +35,7 @@ pub struct Term {
 
 /// A fitted model as the figures see it: its curves, residuals and error.
 ///
-/// `z` and `failing_tau` follow the contracts of DESIGN.md §5: z = (σ²_meas − σ²_model) /
+/// `z` and `failing_tau` follow the contracts of docs/design.md §5: z = (σ²_meas − σ²_model) /
 /// (σ²_model·√(2/EDF)) per τ, failing τ = the maximal τ intervals where |z| > 3.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ModelCurves {

@@ -1,0 +1,227 @@
+//! The exit-code contract of `fdavar` (issue 12), one test per subcommand, each code it can give:
+//! 0 ok — also when a model fails (the misfit is the finding, a warning line); 1 runtime error,
+//! one `fdavar: error: …` line; 2 usage error (clap, or a flag the input needs); 3 finished with
+//! warnings — samples left out, or a failing model under `--strict`.
+//!
+//! Every case checks the code and the stderr line(s) it must print, nothing more and nothing less.
+//! Codes a subcommand cannot give are named in its test (e.g. `allan` never warns).
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The bundled recording whose N,B,K model fits every axis (fit_error 0.93–1.22).
+const CLEAN: &str = "bags/clean";
+/// The bundled recording with hidden effects: N,B,K fails on five axes.
+const EFFECTS: &str = "bags/effects";
+
+/// Runs `fdavar ARGS` from the repository root; returns the exit code and stderr.
+fn fdavar(args: &[&str]) -> (i32, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_fdavar"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run fdavar");
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!stderr.contains("panicked"), "fdavar {args:?} panicked: {stderr}");
+    (out.status.code().expect("exit code"), stderr)
+}
+
+/// Asserts the code and that stderr is exactly these lines (each a prefix + fragments it holds).
+#[track_caller]
+fn expect(args: &[&str], code: i32, lines: &[(&str, &[&str])]) {
+    let (got, stderr) = fdavar(args);
+    assert_eq!(got, code, "fdavar {args:?}: exit {got}, stderr:\n{stderr}");
+    let printed: Vec<&str> = stderr.lines().collect();
+    assert_eq!(printed.len(), lines.len(), "fdavar {args:?}: stderr lines:\n{stderr}");
+    for (line, (prefix, fragments)) in printed.iter().zip(lines) {
+        assert!(line.starts_with(prefix), "fdavar {args:?}: {line:?} should start with {prefix:?}");
+        for f in *fragments {
+            assert!(line.contains(f), "fdavar {args:?}: {line:?} should contain {f:?}");
+        }
+    }
+}
+
+/// A clap usage error: exit 2, clap's `error: …` (the culprit on that line, or on the indented
+/// lines listing missing arguments), then its usage hint.
+#[track_caller]
+fn expect_usage(args: &[&str], fragments: &[&str]) {
+    let (got, stderr) = fdavar(args);
+    assert_eq!(got, 2, "fdavar {args:?}: exit {got}, stderr:\n{stderr}");
+    assert!(stderr.starts_with("error: "), "fdavar {args:?}: {stderr}");
+    let message = stderr.split("\n\n").next().unwrap_or_default();
+    for f in fragments {
+        assert!(message.contains(f), "fdavar {args:?}: {message:?} should contain {f:?}");
+    }
+    assert!(stderr.contains("--help"), "fdavar {args:?}: no hint to --help in {stderr}");
+}
+
+/// A runtime error: exit 1 and exactly one `fdavar: error:` line holding the fragments.
+#[track_caller]
+fn expect_error(args: &[&str], fragments: &[&str]) {
+    expect(args, 1, &[("fdavar: error: ", fragments)]);
+}
+
+/// White noise samples (seeded), one per line.
+fn noise_file(dir: &Path, n: usize) -> PathBuf {
+    let mut rng = ChaCha8Rng::seed_from_u64(12);
+    let text: String = (0..n)
+        .map(|_| format!("{:.9}\n", 1e-3 * rng.sample::<f64, _>(StandardNormal)))
+        .collect();
+    let path = dir.join("noise.txt");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// A 60 s, 100 Hz six-axis white-noise bag with one gap of five samples at 10 s.
+fn gap_bag(dir: &Path) -> PathBuf {
+    let bag = dir.join("gap_bag");
+    let mut writer = fdavar::bag::BagWriter::create(&bag).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    for k in 0..6000i64 {
+        let mut n = |s: f64| s * rng.sample::<f64, _>(StandardNormal);
+        let sample = fdavar::signal::ImuSample {
+            stamp_ns: 1_000_000_000 + k * 10_000_000,
+            gyro: [n(1.7e-3), n(1.7e-3), n(1.7e-3)],
+            accel: [n(2e-2), n(2e-2), 9.81 + n(2e-2)],
+        };
+        if (1000..1005).contains(&k) {
+            continue;
+        }
+        writer.write_imu("/imu/data", sample.stamp_ns, &sample, "imu_link").unwrap();
+    }
+    writer.finish().unwrap();
+    bag
+}
+
+const GAP_LINE: (&str, &[&str]) = ("fdavar: warning: ", &["1 gaps", "left out and counted"]);
+
+#[test]
+fn allan_exit_codes() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = noise_file(dir.path(), 2000);
+    let file = file.to_str().unwrap();
+    expect(&["allan", file, "--rate", "100"], 0, &[]);
+    expect_error(&["allan", "no/such/file.txt", "--rate", "100"], &["no/such/file.txt"]);
+    expect_error(&["allan", file, "--rate", "0"], &["--rate", "positive"]);
+    expect_usage(&["allan", file], &["--rate"]);
+    expect_usage(&["allan", file, "--rate", "100", "--taus", "often"], &["often", "--taus"]);
+    // 3: never — a text series has no stamps to be irregular and nothing is fitted.
+}
+
+#[test]
+fn davar_exit_codes() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = noise_file(dir.path(), 3600);
+    let file = file.to_str().unwrap();
+    let gap = gap_bag(dir.path());
+    let gap = gap.to_str().unwrap();
+    expect(&["davar", file, "--rate", "33.333333", "--every", "1000"], 0, &[]);
+    expect_error(&["davar", file], &["--rate"]);
+    expect_error(&["davar", "no/such/file.txt", "--rate", "100"], &["no/such/file.txt"]);
+    expect_usage(&["davar", file, "--json", "--csv"], &["--json", "--csv"]);
+    expect(&["davar", gap, "--axis", "gyro_x", "--every", "100000"], 3, &[GAP_LINE]);
+}
+
+#[test]
+fn fit_exit_codes() {
+    let dir = tempfile::tempdir().unwrap();
+    let gap = gap_bag(dir.path());
+    let gap = gap.to_str().unwrap();
+    expect(&["fit", CLEAN, "--model", "N,B,K"], 0, &[]);
+    expect(&["fit", CLEAN, "--model", "N,B,K", "--strict"], 0, &[]);
+    // The misfit is the finding: a warning pointing at `diagnose`, exit 0; 3 only with --strict.
+    let misfit: (&str, &[&str]) = (
+        "fdavar: warning: the model fails on ",
+        &["gyro_x", "accel_z", "fit_error > 2", "`fdavar diagnose` suggests"],
+    );
+    expect(&["fit", EFFECTS, "--model", "N,B,K"], 0, &[misfit]);
+    expect(&["fit", EFFECTS, "--model", "N,B,K", "--strict"], 3, &[misfit]);
+    expect(&["fit", gap, "--model", "N,B,K", "--axis", "gyro_x"], 3, &[GAP_LINE]);
+    expect_error(&["fit", "no/such/bag", "--model", "N"], &["no/such/bag"]);
+    expect_usage(&["fit", CLEAN, "--model", "N,Bogus"], &["'N,Bogus'", "--model", "unknown effect 'Bogus'"]);
+    expect_usage(&["fit", CLEAN], &["--model"]);
+}
+
+#[test]
+fn diagnose_exit_codes() {
+    let dir = tempfile::tempdir().unwrap();
+    let gap = gap_bag(dir.path());
+    let gap = gap.to_str().unwrap();
+    expect(&["diagnose", CLEAN], 0, &[]);
+    // Its warning must not send the user to the command they just ran.
+    let misfit: (&str, &[&str]) = (
+        "fdavar: warning: the model fails on ",
+        &["gyro_x", "accel_z", "fit_error > 2", "suggestions"],
+    );
+    expect(&["diagnose", EFFECTS], 0, &[misfit]);
+    let (_, stderr) = fdavar(&["diagnose", EFFECTS]);
+    assert!(!stderr.contains("fdavar diagnose"), "{stderr}");
+    expect(&["diagnose", EFFECTS, "--strict"], 3, &[misfit]);
+    expect(&["diagnose", gap, "--axis", "gyro_x"], 3, &[GAP_LINE]);
+    expect_error(&["diagnose", "no/such/bag"], &["no/such/bag"]);
+    expect_usage(&["diagnose", CLEAN, "--model", "Bogus"], &["unknown effect 'Bogus'"]);
+    expect_usage(&["diagnose", CLEAN, "--axis", "gyro_w"], &["gyro_w"]);
+}
+
+#[test]
+fn simulate_exit_codes() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sim");
+    let out = out.to_str().unwrap();
+    let spec = dir.path().join("spec.yaml");
+    std::fs::write(&spec, "rate_hz: 100\nduration_s: 20\nseed: 3\naxes:\n  gyro_x: { N: { n: 1.0e-4 } }\n").unwrap();
+    let spec = spec.to_str().unwrap();
+    expect(&["simulate", spec, "--out", out], 0, &[("fdavar: wrote 2000 IMU", &[out])]);
+    // 1: the bag exists (no --force); a spec that names an unknown effect.
+    expect_error(&["simulate", spec, "--out", out], &[out]);
+    let bad = dir.path().join("bad.yaml");
+    std::fs::write(&bad, "rate_hz: 100\nduration_s: 20\nseed: 3\naxes:\n  gyro_x: { Bogus: { n: 1.0 } }\n").unwrap();
+    expect_error(&["simulate", bad.to_str().unwrap(), "--out", out, "--force"], &["Bogus"]);
+    expect_usage(&["simulate", spec], &["--out"]);
+    // 3: never — a simulation has nothing left out.
+}
+
+#[test]
+fn info_exit_codes() {
+    let dir = tempfile::tempdir().unwrap();
+    let gap = gap_bag(dir.path());
+    // Irregular stamps are what info reports, not a warning: exit 0 with the counts on stdout.
+    expect(&["info", gap.to_str().unwrap()], 0, &[]);
+    expect(&["info", CLEAN], 0, &[]);
+    expect_error(&["info", "no/such/bag"], &["no/such/bag"]);
+    expect_error(&["info", CLEAN, "--topic", "/nope"], &["/nope"]);
+    expect_usage(&["info"], &["<BAG>"]);
+}
+
+#[test]
+fn export_exit_codes() {
+    let dir = tempfile::tempdir().unwrap();
+    let gap = gap_bag(dir.path());
+    let gap = gap.to_str().unwrap();
+    expect(&["export", "kalibr", CLEAN], 0, &[]);
+    // A failing model still exports (its numbers are the finding's), with the fit's warning.
+    let misfit: (&str, &[&str]) = ("fdavar: warning: the model fails on ", &["gyro_x", "fit_error > 2"]);
+    expect(&["export", "vins", EFFECTS], 0, &[misfit]);
+    // 3: samples left out; and the bag is white noise only, so no gyro axis resolves K.
+    let unresolved: (&str, &[&str]) = ("fdavar: warning: gyroscope_random_walk written as 0", &["set it by hand"]);
+    expect(&["export", "openvins", gap, "--inflate", "10"], 3, &[GAP_LINE, unresolved]);
+    expect_error(&["export", "kalibr", "no/such/bag"], &["no/such/bag"]);
+    expect_error(&["export", "kalibr", CLEAN, "--topic", "/nope"], &["/nope"]);
+    expect_usage(&["export", "rovio", CLEAN], &["rovio", "kalibr, openvins, vins"]);
+    expect_usage(&["export", "kalibr", CLEAN, "--model", "N,Bogus"], &["unknown effect 'Bogus'"]);
+    // Usage errors found once the input is read: one `fdavar: error:` line, exit 2.
+    expect(&["export", "kalibr", CLEAN, "--model", "B,K"], 2, &[("fdavar: error: --model B,K", &["N (white)"])]);
+    expect(&["export", "kalibr", CLEAN, "--inflate=-1"], 2, &[("fdavar: error: --inflate", &["-1"])]);
+}
+
+/// Without DDS only the failures that come before the first publisher: a missing bag (1) and
+/// a usage error (2). 0 and 3 need a DDS peer (tests/ros_interop.rs).
+#[cfg(feature = "ros")]
+#[test]
+fn play_exit_codes_before_dds() {
+    expect_error(&["play", "no/such/bag"], &["no/such/bag"]);
+    expect_usage(&["play", CLEAN, "--rate", "fast"], &["fast", "--rate"]);
+}

@@ -903,9 +903,8 @@ fn fdavar_play_clock_reaches_rclpy_and_drives_the_node_on_sim_time() {
             "stale_timeout_s:=60.0",
         ],
     );
-    let peer_thread = std::thread::spawn(move || {
-        peer(&py, 72, "play_clock", Duration::from_secs(150), None)
-    });
+    let peer_thread =
+        std::thread::spawn(move || peer(&py, 72, "play_clock", Duration::from_secs(150), None));
     let mut player = start_play(&bag, 72, &["--clock", "--reliable", "--wait-s", "30"]);
     let status = player.0.wait().unwrap();
     let mut said = String::new();
@@ -933,10 +932,18 @@ fn fdavar_play_clock_reaches_rclpy_and_drives_the_node_on_sim_time() {
         clock.len()
     );
     assert!(published >= n as usize / 2, "{said}");
-    assert!(clock.len() >= published / 2, "{} of {published}", clock.len());
+    assert!(
+        clock.len() >= published / 2,
+        "{} of {published}",
+        clock.len()
+    );
     assert_eq!(v["clock_increasing"], true);
     assert!(clock.iter().all(|c| log_times.contains(c)), "not log times");
-    assert_eq!(*clock.last().unwrap(), last_log, "the clock ends at the last log time");
+    assert_eq!(
+        *clock.last().unwrap(),
+        last_log,
+        "the clock ends at the last log time"
+    );
     // rclpy's own time source (use_sim_time: best effort, depth 1) follows it too.
     assert_eq!(v["sim_now"].as_i64(), Some(last_log), "{}", v["sim_now"]);
 
@@ -1090,7 +1097,9 @@ fn node_stops_cleanly_on(signal: &str, domain: u16, via_shell: bool) {
     let pid = if via_shell {
         let mut line = String::new();
         std::io::BufRead::read_line(&mut stdout, &mut line).unwrap();
-        line.trim().parse::<u32>().expect("the shell printed the node's pid")
+        line.trim()
+            .parse::<u32>()
+            .expect("the shell printed the node's pid")
     } else {
         child.0.id()
     };
@@ -1115,7 +1124,11 @@ fn node_stops_cleanly_on(signal: &str, domain: u16, via_shell: bool) {
     let rows = dump_rows(&std::fs::read_to_string(&dump).unwrap(), "dump_json");
     eprintln!(
         "SIG{signal}{}: exit 0, {} dump rows, all complete ({before} on disk at the signal)",
-        if via_shell { " (background of bash -c)" } else { "" },
+        if via_shell {
+            " (background of bash -c)"
+        } else {
+            ""
+        },
         rows.len()
     );
     assert!(rows.len() >= before);
@@ -1209,7 +1222,9 @@ fn dump_json_stays_under_its_size_cap_and_keeps_the_newest_rows() {
     // Kept: the newest rows, up to the last one; every axis has rows in it.
     assert_eq!(newest(&dump), last_time);
     let rows = dump_rows(&std::fs::read_to_string(&dump).unwrap(), "dump");
-    for axis in ["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"] {
+    for axis in [
+        "gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z",
+    ] {
         assert!(rows.iter().any(|r| r["axis"] == axis), "{axis}");
     }
     eprintln!("dump_json: {total} rows kept in the two files");
@@ -1227,8 +1242,16 @@ fn fdavar_node_help_lists_topics_every_parameter_and_exit_codes_without_starting
             .expect("run fdavar_node");
         let help = String::from_utf8_lossy(&out.stdout);
         assert_eq!(out.status.code(), Some(0), "{flag}: {help}");
-        assert!(out.stderr.is_empty(), "{}", String::from_utf8_lossy(&out.stderr));
-        eprintln!("{flag}: {} lines in {:?}", help.lines().count(), start.elapsed());
+        assert!(
+            out.stderr.is_empty(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        eprintln!(
+            "{flag}: {} lines in {:?}",
+            help.lines().count(),
+            start.elapsed()
+        );
         for want in [
             "sensor_msgs/msg/Imu",
             "sensor_msgs/msg/Temperature",

@@ -67,7 +67,12 @@ impl DumpWriter {
     ///
     /// # Errors
     /// Serialisation or I/O errors; the caller then stops writing (a failed writer is not reused).
-    pub fn write<T: Serialize>(&mut self, key: &str, time_s: f64, row: &T) -> std::io::Result<bool> {
+    pub fn write<T: Serialize>(
+        &mut self,
+        key: &str,
+        time_s: f64,
+        row: &T,
+    ) -> std::io::Result<bool> {
         let slot = match self.last.iter().position(|(k, _)| k == key) {
             Some(i) => {
                 // A NaN time compares false: the row is written, not silently skipped.
@@ -182,7 +187,11 @@ mod tests {
         }
         let (old, new) = (lines(&rotated_path(&path)), lines(&path));
         // The two files hold the newest rows, consecutive, ending with the last one.
-        let t: Vec<f64> = old.iter().chain(&new).map(|v| v["t"].as_f64().unwrap()).collect();
+        let t: Vec<f64> = old
+            .iter()
+            .chain(&new)
+            .map(|v| v["t"].as_f64().unwrap())
+            .collect();
         assert_eq!(*t.last().unwrap(), (n - 1) as f64);
         assert!(t.windows(2).all(|w| w[1] == w[0] + 1.0), "{t:?}");
         assert!(t.len() > 30, "{}", t.len());
@@ -220,7 +229,9 @@ mod tests {
             let t = times(axis);
             assert_eq!(t.len(), 10, "{axis}: {t:?}");
             assert!(
-                t.iter().enumerate().all(|(i, x)| (x - i as f64).abs() <= 0.005),
+                t.iter()
+                    .enumerate()
+                    .all(|(i, x)| (x - i as f64).abs() <= 0.005),
                 "{t:?}"
             );
         }

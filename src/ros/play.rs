@@ -279,7 +279,15 @@ mod tests {
             assert_eq!(check_rate(rate).unwrap(), rate);
         }
         // 1e-300 made `Duration::from_secs_f64` panic (issue 13).
-        for rate in [1e-300, 0.0, -1.0, f64::NAN, f64::INFINITY, MIN_RATE / 2.0, MAX_RATE * 2.0] {
+        for rate in [
+            1e-300,
+            0.0,
+            -1.0,
+            f64::NAN,
+            f64::INFINITY,
+            MIN_RATE / 2.0,
+            MAX_RATE * 2.0,
+        ] {
             let e = check_rate(rate).unwrap_err();
             assert!(e.to_string().contains("--rate"), "{e}");
         }

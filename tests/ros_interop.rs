@@ -365,10 +365,16 @@ fn sample_at(k: i64, v: [f64; 6]) -> fdavar::signal::ImuSample {
 fn write_samples(bag: &Path, samples: impl Iterator<Item = fdavar::signal::ImuSample>) {
     let mut writer = fdavar::bag::BagWriter::create(bag).unwrap();
     for s in samples {
-        let log = 1_700_000_000_000_000_000 + s.stamp_ns + 700_000;
-        writer.write_imu("/imu", log, &s, "imu_link").unwrap();
+        writer
+            .write_imu("/imu", log_time_ns(s.stamp_ns), &s, "imu_link")
+            .unwrap();
     }
     writer.finish().unwrap();
+}
+
+/// The log time [`write_samples`] records for a sample stamped `stamp_ns` (what `/clock` replays).
+fn log_time_ns(stamp_ns: i64) -> i64 {
+    1_700_000_000_000_000_000 + stamp_ns + 700_000
 }
 
 /// A hidden sinusoid: 60 s at 200 Hz of white noise (1e-3 per sample on every axis) with
@@ -864,4 +870,429 @@ fn setting_the_model_live_lowers_the_fit_error_of_a_hidden_sinusoid() {
     let _node = start_node(69, &["-p", "publish_rate_hz:=2.0", "-p", "model:=N,B,K"]);
     let v = peer(&py, 69, "model", Duration::from_secs(90), None);
     eprintln!("model: {v}");
+}
+
+/// `fdavar play BAG ARGS… --domain-id D` as a child killed when the test ends.
+fn start_play(bag: &Path, domain: u16, args: &[&str]) -> Killed {
+    let child = Command::new(env!("CARGO_BIN_EXE_fdavar"))
+        .arg("play")
+        .arg(bag)
+        .args(args)
+        .args(["--domain-id", &domain.to_string()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run fdavar play");
+    Killed(child)
+}
+
+#[test]
+fn fdavar_play_clock_reaches_rclpy_and_drives_the_node_on_sim_time() {
+    // Issue 9: `fdavar play --clock` sent no /clock at all (its 10 ms spacing test subtracted
+    // i64::MIN, which wraps negative in a release build), so neither rclpy nor the node on
+    // use_sim_time got a clock and /diagnostics stamps stayed 0.
+    let Some(py) = python() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let bag = dir.path().join("rec");
+    let n = 4000; // 20 s at 200 Hz
+    write_recording(&bag, n);
+    let log_times: std::collections::BTreeSet<i64> = (0..n)
+        .map(|k| log_time_ns(sample_at(k, [0.0; 6]).stamp_ns))
+        .collect();
+    let last_log = *log_times.last().unwrap();
+    let _node = start_node(
+        72,
+        &[
+            "-p",
+            "use_sim_time:=true",
+            "-p",
+            "qos.reliable:=true",
+            "-p",
+            "publish_rate_hz:=10.0",
+            "-p",
+            "stale_timeout_s:=60.0",
+        ],
+    );
+    let peer_thread =
+        std::thread::spawn(move || peer(&py, 72, "play_clock", Duration::from_secs(150), None));
+    let mut player = start_play(&bag, 72, &["--clock", "--reliable", "--wait-s", "30"]);
+    let status = player.0.wait().unwrap();
+    let mut said = String::new();
+    std::io::Read::read_to_string(player.0.stderr.as_mut().unwrap(), &mut said).unwrap();
+    assert_eq!(status.code(), Some(0), "fdavar play: {said}");
+    assert!(said.contains(&format!("{n} IMU")), "{said}");
+    let published: usize = said
+        .lines()
+        .find_map(|l| l.strip_suffix(" /clock messages published"))
+        .and_then(|l| l.rsplit(' ').next())
+        .and_then(|c| c.parse().ok())
+        .unwrap_or_else(|| panic!("no /clock count in: {said}"));
+    let v = peer_thread.join().unwrap();
+
+    // rclpy, as a plain reliable subscriber: increasing log times of the bag, ending at the last.
+    let clock: Vec<i64> = v["clock"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c.as_i64().unwrap())
+        .collect();
+    eprintln!(
+        "/clock: {published} published (one per 10 ms of log time: every other 5 ms message), {} \
+         received by rclpy (it subscribes while the player starts)",
+        clock.len()
+    );
+    assert!(published >= n as usize / 2, "{said}");
+    assert!(
+        clock.len() >= published / 2,
+        "{} of {published}",
+        clock.len()
+    );
+    assert_eq!(v["clock_increasing"], true);
+    assert!(clock.iter().all(|c| log_times.contains(c)), "not log times");
+    assert_eq!(
+        *clock.last().unwrap(),
+        last_log,
+        "the clock ends at the last log time"
+    );
+    // rclpy's own time source (use_sim_time: best effort, depth 1) follows it too.
+    assert_eq!(v["sim_now"].as_i64(), Some(last_log), "{}", v["sim_now"]);
+
+    // The node on sim time: /diagnostics stamped with the played clock (non-zero, increasing),
+    // and it analysed every sample.
+    let diagnostics: Vec<(i64, u64)> = v["diagnostics"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| (d[0].as_i64().unwrap(), d[1].as_u64().unwrap()))
+        .collect();
+    let first = diagnostics
+        .iter()
+        .position(|d| d.0 != 0)
+        .expect("every /diagnostics stamp is 0: the node never got /clock");
+    let stamps: Vec<i64> = diagnostics[first..].iter().map(|d| d.0).collect();
+    let distinct: std::collections::BTreeSet<i64> = stamps.iter().copied().collect();
+    eprintln!(
+        "/diagnostics: {} received, {} stamped before the first /clock, {} distinct stamps",
+        diagnostics.len(),
+        first,
+        distinct.len()
+    );
+    assert!(stamps.iter().all(|s| log_times.contains(s)), "{stamps:?}");
+    assert!(stamps.windows(2).all(|w| w[1] >= w[0]), "{stamps:?}");
+    // 20 s of replay published at 10 Hz: far more than 20 distinct clock readings.
+    assert!(distinct.len() >= 20, "{stamps:?}");
+    assert_eq!(diagnostics.last().unwrap().1, n as u64, "samples analysed");
+}
+
+#[test]
+fn fdavar_play_refuses_out_of_range_numbers_with_exit_2() {
+    // Issue 13: `--rate 1e-300` panicked (Duration overflow), `--wait-s nan` would too.
+    for (flag, value) in [
+        ("--rate", "1e-300"),
+        ("--rate", "0"),
+        ("--rate", "-1"),
+        ("--rate", "nan"),
+        ("--rate", "inf"),
+        ("--rate", "1e7"),
+        ("--wait-s", "nan"),
+        ("--wait-s", "-1"),
+        ("--wait-s", "1e9"),
+        ("--domain-id", "233"),
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_fdavar"))
+            .args(["play", "bags/clean", flag, value])
+            .current_dir(crate_root())
+            .output()
+            .expect("run fdavar play");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{flag} {value}: {err}");
+        let first = err.lines().next().unwrap_or_default();
+        assert!(
+            first.starts_with("error: invalid value") && first.contains(flag),
+            "{flag} {value}: {err}"
+        );
+        assert!(!err.contains("panicked"), "{flag} {value}: {err}");
+    }
+}
+
+/// Waits (bounded) until `path` holds at least `lines` complete lines.
+fn wait_for_lines(path: &Path, lines: usize, within: Duration) -> usize {
+    let start = Instant::now();
+    loop {
+        let text = std::fs::read_to_string(path).unwrap_or_default();
+        let n = text.matches('\n').count();
+        if n >= lines || start.elapsed() > within {
+            return n;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// Waits (bounded) for a child to exit; its exit status, or None when it is still running.
+fn wait_exit(child: &mut Child, within: Duration) -> Option<std::process::ExitStatus> {
+    let start = Instant::now();
+    while start.elapsed() < within {
+        if let Some(status) = child.try_wait().unwrap() {
+            return Some(status);
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    None
+}
+
+/// Every line of a dump parses as JSON and the text ends with a newline; returns the rows.
+fn dump_rows(text: &str, what: &str) -> Vec<serde_json::Value> {
+    assert!(
+        text.is_empty() || text.ends_with('\n'),
+        "{what}: the last line is cut: …{}",
+        &text[text.len().saturating_sub(80)..]
+    );
+    text.lines()
+        .enumerate()
+        .map(|(i, l)| {
+            serde_json::from_str(l).unwrap_or_else(|e| panic!("{what} line {}: {e}", i + 1))
+        })
+        .collect()
+}
+
+/// Sends `signal` (e.g. "INT") to `pid` with kill(1).
+fn send_signal(pid: u32, signal: &str) {
+    let ok = Command::new("kill")
+        .args(["-s", signal, &pid.to_string()])
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(ok, "kill -s {signal} {pid}");
+}
+
+/// Replays a recording into `fdavar_node` (started directly, or by a non-interactive shell in the
+/// background), sends `signal` while rows are still coming, and checks the shutdown: exit 0 within
+/// a bounded time and a dump whose every line is complete JSON.
+fn node_stops_cleanly_on(signal: &str, domain: u16, via_shell: bool) {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = dir.path().join("rec");
+    write_recording(&bag, 3600); // 18 s at 200 Hz
+    let dump = dir.path().join("rows.jsonl");
+    let log = dir.path().join("node.log");
+    let ros_args = [
+        "--ros-args".to_string(),
+        "-p".into(),
+        "qos.reliable:=true".into(),
+        "-p".into(),
+        "publish_rate_hz:=10.0".into(),
+        "-p".into(),
+        format!("dump_json:={}", dump.display()),
+    ];
+    let node_bin = env!("CARGO_BIN_EXE_fdavar_node");
+    let mut command = if via_shell {
+        // A shell without job control starts background commands with SIGINT (and SIGQUIT)
+        // ignored: the node must install its handler over that.
+        let mut c = Command::new("bash");
+        c.arg("-c")
+            .arg(r#""$0" "$@" & echo $!; wait $!; echo "exit=$?""#)
+            .arg(node_bin);
+        c
+    } else {
+        Command::new(node_bin)
+    };
+    let mut child = Killed(
+        command
+            .args(&ros_args)
+            .env("ROS_DOMAIN_ID", domain.to_string())
+            .stdout(Stdio::piped())
+            .stderr(std::fs::File::create(&log).unwrap())
+            .spawn()
+            .expect("spawn fdavar_node"),
+    );
+    let mut stdout = std::io::BufReader::new(child.0.stdout.take().unwrap());
+    let pid = if via_shell {
+        let mut line = String::new();
+        std::io::BufRead::read_line(&mut stdout, &mut line).unwrap();
+        line.trim()
+            .parse::<u32>()
+            .expect("the shell printed the node's pid")
+    } else {
+        child.0.id()
+    };
+    let _player = start_play(&bag, domain, &["--reliable", "--wait-s", "30"]);
+    let before = wait_for_lines(&dump, 600, Duration::from_secs(60));
+    assert!(before >= 600, "only {before} rows before the signal");
+    send_signal(pid, signal);
+    let status = wait_exit(&mut child.0, Duration::from_secs(30))
+        .unwrap_or_else(|| panic!("fdavar_node still running 30 s after SIG{signal}"));
+    let said = std::fs::read_to_string(&log).unwrap_or_default();
+    let code = if via_shell {
+        let mut rest = String::new();
+        std::io::Read::read_to_string(&mut stdout, &mut rest).unwrap();
+        rest.lines()
+            .find_map(|l| l.strip_prefix("exit="))
+            .and_then(|c| c.parse::<i32>().ok())
+    } else {
+        status.code()
+    };
+    assert_eq!(code, Some(0), "SIG{signal}: fdavar_node said:\n{said}");
+    assert!(said.contains("stopping"), "{said}");
+    let rows = dump_rows(&std::fs::read_to_string(&dump).unwrap(), "dump_json");
+    eprintln!(
+        "SIG{signal}{}: exit 0, {} dump rows, all complete ({before} on disk at the signal)",
+        if via_shell {
+            " (background of bash -c)"
+        } else {
+            ""
+        },
+        rows.len()
+    );
+    assert!(rows.len() >= before);
+}
+
+#[test]
+fn sigint_stops_the_node_with_exit_0_and_a_complete_dump() {
+    node_stops_cleanly_on("INT", 73, false);
+}
+
+#[test]
+fn sigterm_stops_the_node_with_exit_0_and_a_complete_dump() {
+    node_stops_cleanly_on("TERM", 74, false);
+}
+
+#[test]
+fn sigint_stops_the_node_started_in_the_background_of_a_non_interactive_shell() {
+    // The premise: such a shell starts background commands with SIGINT ignored (bit 2 of SigIgn).
+    let out = Command::new("bash")
+        .arg("-c")
+        .arg("sleep 30 & grep SigIgn /proc/$!/status; kill $!")
+        .output()
+        .unwrap();
+    let line = String::from_utf8_lossy(&out.stdout).into_owned();
+    let mask = u64::from_str_radix(line.trim().trim_start_matches("SigIgn:").trim(), 16)
+        .unwrap_or_else(|_| panic!("SigIgn line: {line}"));
+    assert_ne!(mask & (1 << (2 - 1)), 0, "SIGINT not ignored in: {line}");
+    node_stops_cleanly_on("INT", 75, true);
+}
+
+#[test]
+fn dump_json_stays_under_its_size_cap_and_keeps_the_newest_rows() {
+    // Issue 9: dump_json wrote 8.8 GB in 4 minutes. With dump_json_max_mb 1 the file rotates into
+    // rows.jsonl.1 (one kept) and neither passes 1 MB, however long the run.
+    let dir = tempfile::tempdir().unwrap();
+    let bag = dir.path().join("rec");
+    let n = 3600;
+    write_recording(&bag, n);
+    let dump = dir.path().join("rows.jsonl");
+    let rotated = dir.path().join("rows.jsonl.1");
+    let dump_arg = format!("dump_json:={}", dump.display());
+    let mut node = start_node(
+        76,
+        &[
+            "-p",
+            "qos.reliable:=true",
+            "-p",
+            "publish_rate_hz:=10.0",
+            "-p",
+            &dump_arg,
+            "-p",
+            "dump_json_max_mb:=1.0",
+        ],
+    );
+    // The newest analysis time offline: the node has analysed everything once it is on disk.
+    let (offline, _) = cli_rows(&bag);
+    let last_time = offline
+        .iter()
+        .filter_map(|r| r["time_s"].as_f64())
+        .fold(f64::MIN, f64::max);
+    let mut player = start_play(&bag, 76, &["--reliable", "--rate", "4", "--wait-s", "30"]);
+    let played = wait_exit(&mut player.0, Duration::from_secs(90)).expect("fdavar play ended");
+    assert_eq!(played.code(), Some(0));
+    let newest = |path: &Path| -> f64 {
+        let text = std::fs::read_to_string(path).unwrap_or_default();
+        text.lines()
+            .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+            .filter_map(|r| r["analysis_time_s"].as_f64())
+            .fold(f64::MIN, f64::max)
+    };
+    let start = Instant::now();
+    while newest(&dump) < last_time && start.elapsed() < Duration::from_secs(30) {
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    // SIGTERM flushes and ends the node.
+    send_signal(node.0.id(), "TERM");
+    let status = wait_exit(&mut node.0, Duration::from_secs(30)).expect("node stopped");
+    assert_eq!(status.code(), Some(0));
+    let cap = 1_000_000;
+    let mut total = 0;
+    for path in [&rotated, &dump] {
+        let size = std::fs::metadata(path)
+            .unwrap_or_else(|_| panic!("{} missing: no rotation", path.display()))
+            .len();
+        let rows = dump_rows(&std::fs::read_to_string(path).unwrap(), "dump");
+        eprintln!("{}: {size} bytes, {} rows", path.display(), rows.len());
+        assert!(size <= cap, "{} is {size} bytes", path.display());
+        assert!(!rows.is_empty());
+        total += rows.len();
+    }
+    // Kept: the newest rows, up to the last one; every axis has rows in it.
+    assert_eq!(newest(&dump), last_time);
+    let rows = dump_rows(&std::fs::read_to_string(&dump).unwrap(), "dump");
+    for axis in [
+        "gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z",
+    ] {
+        assert!(rows.iter().any(|r| r["axis"] == axis), "{axis}");
+    }
+    eprintln!("dump_json: {total} rows kept in the two files");
+}
+
+#[test]
+fn fdavar_node_help_lists_topics_every_parameter_and_exit_codes_without_starting() {
+    for flag in ["--help", "-h"] {
+        let start = Instant::now();
+        // An invalid ROS_DOMAIN_ID would stop a node that read its configuration (exit 1).
+        let out = Command::new(env!("CARGO_BIN_EXE_fdavar_node"))
+            .arg(flag)
+            .env("ROS_DOMAIN_ID", "999")
+            .output()
+            .expect("run fdavar_node");
+        let help = String::from_utf8_lossy(&out.stdout);
+        assert_eq!(out.status.code(), Some(0), "{flag}: {help}");
+        assert!(
+            out.stderr.is_empty(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        eprintln!(
+            "{flag}: {} lines in {:?}",
+            help.lines().count(),
+            start.elapsed()
+        );
+        for want in [
+            "sensor_msgs/msg/Imu",
+            "sensor_msgs/msg/Temperature",
+            "rosgraph_msgs/msg/Clock",
+            "diagnostic_msgs/msg/DiagnosticArray",
+            "fdavar_msgs/msg/AxisState",
+            "--params-file",
+            "__ns:=",
+            "__node:=",
+            "ROS_DOMAIN_ID",
+            "SIGINT",
+            "SIGTERM",
+            "Exit codes: 0",
+        ] {
+            assert!(help.contains(want), "{flag}: no '{want}' in\n{help}");
+        }
+        // Every parameter of both tables, with its type and default.
+        for spec in fdavar::ros::params::NODE_PARAMS {
+            let (kind, default) = fdavar::ros::params::type_and_text(&(spec.default)());
+            let head = format!("  {} ({kind}, default {default}, ", spec.name);
+            assert!(help.contains(&head), "{flag}: no '{head}'");
+            assert!(help.contains(spec.doc), "{flag}: no doc of {}", spec.name);
+        }
+        for spec in fdavar::params::PARAMS {
+            let head = format!("  {} (", spec.name);
+            let line = help.lines().find(|l| l.starts_with(&head));
+            assert!(
+                line.is_some_and(|l| l.ends_with(&format!("default {})", spec.default))),
+                "{flag}: {line:?} for {}",
+                spec.name
+            );
+        }
+    }
 }

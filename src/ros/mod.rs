@@ -11,9 +11,11 @@
 //! - [`monitor`]: input checks, counters, levels and the messages (no DDS, tested alone);
 //! - [`node`]: context (ROS_DOMAIN_ID), subscriptions, the bounded queue, the analysis thread,
 //!   publishers of `/diagnostics` and `~/<axis>/state`, `/clock` as `rosgraph_msgs/msg/Clock`;
-//! - [`play`]: `fdavar play`, a recording replayed over DDS at its recorded pace.
+//! - [`play`]: `fdavar play`, a recording replayed over DDS at its recorded pace;
+//! - [`dump`]: the `dump_json` file, decimated and size-capped.
 
 pub mod args;
+pub mod dump;
 pub mod engine;
 pub mod monitor;
 pub mod names;

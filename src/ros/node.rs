@@ -9,6 +9,7 @@
 //! services on a channel and apply between two samples.
 
 use super::args::RosArgs;
+use super::dump::DumpWriter;
 use super::monitor::{Change, Monitor, MonitorSettings, RowEngine};
 use super::names::{check_node_name, normalise_namespace, resolve, NameError};
 use super::params::{self, ParamError, NODE_PARAMS};
@@ -25,7 +26,6 @@ use ros2_client::{
     Publisher, QosProfile, Subscription,
 };
 use std::collections::BTreeMap;
-use std::io::Write;
 use std::sync::atomic::{AtomicBool, AtomicI64, AtomicU64, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, SyncSender, TrySendError};
 use std::sync::Arc;
@@ -280,7 +280,8 @@ fn status_qos(depth: usize) -> QosProfile {
     QosProfile::publisher_default().history(History::KeepLast { depth })
 }
 
-/// Runs the node until the process is stopped (or `stop` becomes true).
+/// Runs the node until `stop` becomes true (`fdavar_node` sets it on SIGINT/SIGTERM), then
+/// analyses the samples already queued, flushes `dump_json` and returns.
 ///
 /// `engine` is the F-DAVAR engine the analysis thread drives (`None`: input checks and counters
 /// only).
@@ -438,12 +439,19 @@ pub fn run(
     let dump = if dump_path.is_empty() {
         None
     } else {
-        Some(std::io::BufWriter::new(
-            std::fs::File::create(&dump_path).map_err(|source| NodeError::Dump {
+        // The validator bounds the cap to [1, 10⁶] MB, so the product is a whole number of bytes.
+        let max_bytes = (config.double("dump_json_max_mb") * 1e6) as u64;
+        Some(
+            DumpWriter::create(
+                std::path::Path::new(&dump_path),
+                max_bytes,
+                config.double("dump_every_s"),
+            )
+            .map_err(|source| NodeError::Dump {
                 path: dump_path.clone(),
                 source,
             })?,
-        ))
+        )
     };
 
     let spinner = node
@@ -476,7 +484,6 @@ pub fn run(
         log: log.clone(),
         drops: Arc::clone(&drops),
         dump,
-        stop: Arc::clone(&stop),
         latency: Latency {
             ring: Vec::new(),
             next: 0,
@@ -508,8 +515,14 @@ pub fn run(
         &stop,
         &log,
     )?;
+    if stop.load(Ordering::Relaxed) {
+        log.info("stopping: analysing the queued samples and flushing outputs");
+    }
+    // Closing the queue ends the analysis thread once it has drained it.
     drop(tx);
-    let _ = analysis_thread.join();
+    if analysis_thread.join().is_err() {
+        log.warn("the analysis thread panicked; outputs may be incomplete");
+    }
     node.stop_spinner();
     Ok(())
 }
@@ -679,8 +692,7 @@ struct Analysis {
     clock: NodeClock,
     log: Log,
     drops: Arc<AtomicU64>,
-    dump: Option<std::io::BufWriter<std::fs::File>>,
-    stop: Arc<AtomicBool>,
+    dump: Option<DumpWriter>,
     latency: Latency,
 }
 
@@ -731,7 +743,7 @@ impl Analysis {
                 self.publish();
                 // Rows reach the file at each publication, so that it can be read while the
                 // node runs.
-                if let Some(Err(e)) = self.dump.as_mut().map(std::io::Write::flush) {
+                if let Some(Err(e)) = self.dump.as_mut().map(DumpWriter::flush) {
                     self.log
                         .warn(&format!("dump_json: {e}; no more rows are written"));
                     self.dump = None;
@@ -741,12 +753,10 @@ impl Analysis {
                     next_publish = Instant::now() + self.publish_period;
                 }
             }
-            if self.stop.load(Ordering::Relaxed) {
-                break;
-            }
         }
-        if let Some(mut d) = self.dump.take() {
-            if let Err(e) = d.flush() {
+        // The queue is closed and drained (the node is stopping): the last line must be whole.
+        if let Some(d) = self.dump.take() {
+            if let Err(e) = d.finish() {
                 self.log.warn(&format!("dump_json: {e}"));
             }
         }
@@ -757,10 +767,7 @@ impl Analysis {
             return;
         };
         for row in self.monitor.drain_rows() {
-            if let Err(e) = serde_json::to_writer(&mut *dump, &row)
-                .map_err(std::io::Error::from)
-                .and_then(|()| dump.write_all(b"\n"))
-            {
+            if let Err(e) = dump.write(&row.axis, row.analysis_time_s, &row) {
                 self.log
                     .warn(&format!("dump_json: {e}; no more rows are written"));
                 self.dump = None;

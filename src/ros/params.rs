@@ -42,9 +42,13 @@ fn positive_double(v: &ParameterValue, max: f64) -> Result<(), String> {
 }
 
 fn non_negative_double(v: &ParameterValue, max: f64) -> Result<(), String> {
+    double_in(v, 0.0, max)
+}
+
+fn double_in(v: &ParameterValue, min: f64, max: f64) -> Result<(), String> {
     match v {
-        ParameterValue::Double(x) if x.is_finite() && *x >= 0.0 && *x <= max => Ok(()),
-        ParameterValue::Double(x) => Err(format!("must be in [0, {max}], got {x}")),
+        ParameterValue::Double(x) if (min..=max).contains(x) => Ok(()),
+        ParameterValue::Double(x) => Err(format!("must be in [{min}, {max}], got {x}")),
         other => Err(format!("must be a double, got {other:?}")),
     }
 }
@@ -135,7 +139,7 @@ pub static NODE_PARAMS: &[ParamSpec] = &[
     },
     ParamSpec {
         name: "qos.depth",
-        doc: "Keep-last depth of the `imu` subscription.",
+        doc: "Keep-last depth of the `imu` subscription, messages.",
         default: || ParameterValue::Integer(100),
         validate: |v| int_in(v, 1, 100_000),
         live: false,
@@ -178,12 +182,41 @@ pub static NODE_PARAMS: &[ParamSpec] = &[
     },
     ParamSpec {
         name: "dump_json",
-        doc: "If not empty, a file the node appends one JSON line per analysis row to.",
+        doc: "If not empty, a file the node writes one JSON line per analysis row to (an \
+              AxisState as JSON), bounded by dump_json_max_mb and dump_every_s.",
         default: || ParameterValue::String(String::new()),
         validate: string,
         live: false,
     },
+    ParamSpec {
+        name: "dump_json_max_mb",
+        doc: "Size cap of the dump_json file, MB (10^6 bytes), [1, 1e6]: the line that would \
+              pass it first moves the file to <dump_json>.1 (replacing the previous one).",
+        default: || ParameterValue::Double(100.0),
+        validate: |v| double_in(v, 1.0, 1e6),
+        live: false,
+    },
+    ParamSpec {
+        name: "dump_every_s",
+        doc: "dump_json keeps at most one row per axis per this many seconds of analysis time, \
+              s, [0, 3600]; 0 keeps every row.",
+        default: || ParameterValue::Double(0.0),
+        validate: |v| non_negative_double(v, 3600.0),
+        live: false,
+    },
 ];
+
+/// A value's ROS type name and its text as `--help` and the docs show them (`double`, `1.0`;
+/// `string`, `"N,B,K"`).
+pub fn type_and_text(value: &ParameterValue) -> (&'static str, String) {
+    match value {
+        ParameterValue::Boolean(b) => ("bool", b.to_string()),
+        ParameterValue::Integer(i) => ("int", i.to_string()),
+        ParameterValue::Double(x) => ("double", format!("{x:?}")),
+        ParameterValue::String(s) => ("string", format!("{s:?}")),
+        other => ("array", format!("{other:?}")),
+    }
+}
 
 /// A parameter value refused at startup or at run time.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

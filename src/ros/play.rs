@@ -5,6 +5,10 @@
 //! integration tests replay a recording into `fdavar_node` on a domain of their own. Messages keep
 //! their recorded header stamps (the sensor clock the analysis uses); the pacing follows the
 //! recorder's log times scaled by `rate`, as `ros2 bag play` does; `/clock` carries the log time.
+//!
+//! `/clock` is offered reliable (keep last 1): a reliable writer matches every reader, the
+//! best-effort one rclpy's and rclcpp's time sources create (depth 1) as well as the reliable
+//! default of a plain subscriber, where a best-effort writer would leave the latter unmatched.
 
 use super::node::{publish_on, NodeError};
 use crate::bag::{BagMessage, BagReader};
@@ -14,10 +18,45 @@ use ros2_client::qos::{History, WhenFull};
 use ros2_client::{Context, ContextOptions, NodeName, NodeOptions, QosProfile};
 use std::time::{Duration, Instant};
 
+/// The slowest replay speed factor accepted: 10⁻⁶ (a 1 s recording then takes 11.6 days).
+///
+/// Why a bound: the pacing divides recorded durations by the rate, and below about 10⁻¹⁰ a
+/// recording of a few hours no longer fits a [`Duration`]; 10⁻⁶ keeps a recording spanning the
+/// whole `i64` nanosecond range (292 years) within it.
+pub const MIN_RATE: f64 = 1e-6;
+/// The fastest replay speed factor accepted: 10⁶ (beyond, replay runs as fast as DDS takes it anyway).
+pub const MAX_RATE: f64 = 1e6;
+/// The longest wait for a subscriber accepted, seconds (one hour).
+pub const MAX_WAIT_S: f64 = 3600.0;
+
+/// Checks a replay speed factor: finite, in [[`MIN_RATE`], [`MAX_RATE`]].
+///
+/// # Errors
+/// [`PlayError::Rate`] with the value.
+pub fn check_rate(rate: f64) -> Result<f64, PlayError> {
+    if (MIN_RATE..=MAX_RATE).contains(&rate) {
+        Ok(rate)
+    } else {
+        Err(PlayError::Rate(rate))
+    }
+}
+
+/// Checks a wait for a subscriber, seconds: finite, in [0, [`MAX_WAIT_S`]].
+///
+/// # Errors
+/// [`PlayError::Wait`] with the value.
+pub fn check_wait_s(seconds: f64) -> Result<Duration, PlayError> {
+    if (0.0..=MAX_WAIT_S).contains(&seconds) {
+        Ok(Duration::from_secs_f64(seconds))
+    } else {
+        Err(PlayError::Wait(seconds))
+    }
+}
+
 /// How to replay.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlayOptions {
-    /// Speed factor: 2.0 plays twice as fast as recorded.
+    /// Speed factor: 2.0 plays twice as fast as recorded; in [[`MIN_RATE`], [`MAX_RATE`]].
     pub rate: f64,
     /// Also publish `/clock` (rosgraph_msgs/msg/Clock) with the log time, at most every 10 ms.
     pub clock: bool,
@@ -29,7 +68,8 @@ pub struct PlayOptions {
     pub domain_id: u16,
     /// Publish reliable (default best effort, like IMU drivers).
     pub reliable: bool,
-    /// How long to wait for a subscriber before sending.
+    /// How long to wait for a subscriber (of `/clock` too with `clock`) before sending; at most
+    /// [`MAX_WAIT_S`].
     pub wait: Duration,
     /// Frame id of the published messages (bags' samples keep no frame).
     pub frame_id: String,
@@ -46,6 +86,10 @@ pub struct PlayReport {
     pub malformed: u64,
     /// True when a subscriber matched before the first message.
     pub matched: bool,
+    /// `/clock` messages published.
+    pub clock: u64,
+    /// True when a `/clock` subscriber matched before the first message (with `clock`).
+    pub clock_matched: bool,
 }
 
 /// Why a replay failed.
@@ -58,20 +102,22 @@ pub enum PlayError {
     /// DDS refused to start.
     #[error(transparent)]
     Ros(#[from] NodeError),
-    /// `rate` is not a positive finite number.
-    #[error("--rate must be a positive number, got {0}")]
+    /// `rate` is outside [[`MIN_RATE`], [`MAX_RATE`]] or not a number.
+    #[error("--rate must be a number in [{MIN_RATE:e}, {MAX_RATE:e}], got {0:?}")]
     Rate(f64),
+    /// The wait for a subscriber is outside [0, [`MAX_WAIT_S`]] or not a number.
+    #[error("--wait-s must be a number of seconds in [0, {MAX_WAIT_S}], got {0:?}")]
+    Wait(f64),
 }
 
 /// Replays `bag` as [`PlayOptions`] say; returns when the last message is sent.
 ///
 /// # Errors
-/// [`PlayError`] for an unreadable bag, a bad rate or DDS failing to start. Malformed messages are
-/// skipped and counted in the report.
+/// [`PlayError`] for an unreadable bag, a bad rate or wait, or DDS failing to start. Malformed
+/// messages are skipped and counted in the report.
 pub fn play(bag: &std::path::Path, options: &PlayOptions) -> Result<PlayReport, PlayError> {
-    if !(options.rate.is_finite() && options.rate > 0.0) {
-        return Err(PlayError::Rate(options.rate));
-    }
+    let rate = check_rate(options.rate)?;
+    check_wait_s(options.wait.as_secs_f64())?;
     let reader = BagReader::open(bag)?;
     let imu_topic = reader.imu_topic(options.bag_topic.as_deref())?.name.clone();
     let temperature_topic = reader.temperature_topic(None)?.map(|t| t.name.clone());
@@ -109,7 +155,9 @@ pub fn play(bag: &std::path::Path, options: &PlayOptions) -> Result<PlayReport, 
         Some(t) => Some(publish_on::<Temperature>(&mut node, t, &qos)?),
         None => None,
     };
-    let clock_qos = QosProfile::subscription_default().history(History::KeepLast { depth: 1 });
+    let clock_qos = QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::Wait(Duration::from_millis(100)))
+        .history(History::KeepLast { depth: 1 });
     let clock_pub = if options.clock {
         Some(publish_on::<Clock>(&mut node, "/clock", &clock_qos)?)
     } else {
@@ -122,9 +170,13 @@ pub fn play(bag: &std::path::Path, options: &PlayOptions) -> Result<PlayReport, 
 
     let deadline = Instant::now() + options.wait;
     let mut report = PlayReport::default();
+    // With `clock`, a node on sim time needs /clock matched too, or its first samples get time 0.
     while Instant::now() < deadline {
-        if imu_pub.get_subscription_count(&node) > 0 {
-            report.matched = true;
+        report.matched = imu_pub.get_subscription_count(&node) > 0;
+        report.clock_matched = clock_pub
+            .as_ref()
+            .is_some_and(|c| c.get_subscription_count(&node) > 0);
+        if report.matched && (clock_pub.is_none() || report.clock_matched) {
             break;
         }
         std::thread::sleep(Duration::from_millis(50));
@@ -136,7 +188,11 @@ pub fn play(bag: &std::path::Path, options: &PlayOptions) -> Result<PlayReport, 
 
     let start = Instant::now();
     let mut first_log: Option<i64> = None;
-    let mut last_clock = i64::MIN;
+    // The last log time published on /clock, and the last one seen. (Was `i64::MIN` with
+    // `log_ns - last_clock >= 10 ms`: that difference wraps negative for every positive log time
+    // in a release build, so no /clock was ever sent; issue 9.)
+    let mut last_clock: Option<i64> = None;
+    let mut last_log: Option<i64> = None;
     for item in reader.messages(&imu_topic, temperature_topic.as_deref())? {
         let message = match item {
             Ok(m) => m,
@@ -152,18 +208,21 @@ pub fn play(bag: &std::path::Path, options: &PlayOptions) -> Result<PlayReport, 
             }
         };
         let t0 = *first_log.get_or_insert(log_ns);
-        let due = Duration::from_secs_f64(((log_ns - t0).max(0) as f64 * 1e-9) / options.rate);
+        // Saturating: log times are the bag's data, any i64; the rate bounds keep the quotient
+        // within a Duration, and a sleep of centuries is still no panic.
+        let recorded_s = log_ns.saturating_sub(t0).max(0) as f64 * 1e-9;
+        let due = Duration::try_from_secs_f64(recorded_s / rate).unwrap_or(Duration::MAX);
         if let Some(wait) = due.checked_sub(start.elapsed()) {
             std::thread::sleep(wait);
         }
         if let Some(clock) = &clock_pub {
-            if log_ns - last_clock >= 10_000_000 {
-                let time =
-                    crate::msgs::builtin_interfaces::Time::from_ns(log_ns).unwrap_or_default();
-                let _ = clock.publish(Clock { clock: time });
-                last_clock = log_ns;
+            let tick = last_clock.is_none_or(|t| log_ns.saturating_sub(t) >= CLOCK_PERIOD_NS);
+            if tick && publish_clock(clock, log_ns) {
+                report.clock += 1;
+                last_clock = Some(log_ns);
             }
         }
+        last_log = Some(log_ns);
         match message {
             BagMessage::Imu { sample, .. } => {
                 let Ok(msg) = Imu::from_sample(&sample, &options.frame_id) else {
@@ -184,6 +243,12 @@ pub fn play(bag: &std::path::Path, options: &PlayOptions) -> Result<PlayReport, 
             }
         }
     }
+    // The clock ends at the last message's log time.
+    if let (Some(clock), Some(log_ns)) = (&clock_pub, last_log) {
+        if last_clock.is_some_and(|t| t < log_ns) && publish_clock(clock, log_ns) {
+            report.clock += 1;
+        }
+    }
     // Let a reliable writer deliver what it still holds.
     std::thread::sleep(Duration::from_millis(if options.reliable {
         1000
@@ -192,4 +257,48 @@ pub fn play(bag: &std::path::Path, options: &PlayOptions) -> Result<PlayReport, 
     }));
     node.stop_spinner();
     Ok(report)
+}
+
+/// Shortest interval between two `/clock` messages, ns (10 ms, 100 Hz at rate 1).
+const CLOCK_PERIOD_NS: i64 = 10_000_000;
+
+/// Publishes `log_ns` on `/clock`; false when it was not sent (a time beyond `builtin_interfaces/Time`,
+/// or DDS refused).
+fn publish_clock(clock: &ros2_client::Publisher<Clock>, log_ns: i64) -> bool {
+    crate::msgs::builtin_interfaces::Time::from_ns(log_ns)
+        .is_ok_and(|time| clock.publish(Clock { clock: time }).is_ok())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rates_and_waits_outside_their_bounds_are_refused() {
+        for rate in [MIN_RATE, 1.0, MAX_RATE] {
+            assert_eq!(check_rate(rate).unwrap(), rate);
+        }
+        // 1e-300 made `Duration::from_secs_f64` panic (issue 13).
+        for rate in [
+            1e-300,
+            0.0,
+            -1.0,
+            f64::NAN,
+            f64::INFINITY,
+            MIN_RATE / 2.0,
+            MAX_RATE * 2.0,
+        ] {
+            let e = check_rate(rate).unwrap_err();
+            assert!(e.to_string().contains("--rate"), "{e}");
+        }
+        assert_eq!(check_wait_s(0.0).unwrap(), Duration::ZERO);
+        assert_eq!(check_wait_s(MAX_WAIT_S).unwrap(), Duration::from_secs(3600));
+        for s in [-1.0, f64::NAN, f64::INFINITY, MAX_WAIT_S + 1.0] {
+            assert!(check_wait_s(s).is_err(), "{s}");
+        }
+        // The slowest rate over the longest recording an i64 of nanoseconds spans still fits a
+        // Duration, so the pacing never overflows.
+        let longest_s = i64::MAX as f64 * 1e-9;
+        assert!(Duration::try_from_secs_f64(longest_s / MIN_RATE).is_ok());
+    }
 }

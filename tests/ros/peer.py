@@ -15,6 +15,9 @@ Scenarios:
   temperature  publish Imu at 200 Hz and sensor_msgs/Temperature at 10 Hz for 15 s, the temperature
                ramping 20 -> 40 degC and gyro_x following it at 2e-4 rad/s/K; report the
                temperature coefficient /diagnostics shows for gyro_x and gyro_y.
+  play_clock   while `fdavar play --clock` replays a recording, receive /clock as a plain reliable
+               subscriber and through rclpy's own time source (a node with use_sim_time), and
+               the stamps of fdavar_node's /diagnostics; report them when /clock goes quiet.
   suggestions N  while `fdavar play` replays N samples, wait until the node counted them, then
                report each axis's suggestions, level and message from /diagnostics (and the typed
                ~/gyro_x/state suggestions when fdavar_msgs is importable); the test judges them.
@@ -449,6 +452,48 @@ def scenario_temperature(peer):
     finish(True, "", coefficient=found, sent=k)
 
 
+def scenario_play_clock(peer):
+    from rclpy.parameter import Parameter as RclpyParameter
+    # rclpy's time source subscribes /clock best effort, depth 1 (what a node on sim time does).
+    sim = Node("fdavar_sim_time_peer",
+               parameter_overrides=[RclpyParameter("use_sim_time", RclpyParameter.Type.BOOL, True)])
+    clock = []  # ns, as a plain subscriber (reliable, depth 100: `ros2 topic echo /clock`) got them
+    peer.create_subscription(Clock, "/clock",
+                             lambda m: clock.append(m.clock.sec * 10**9 + m.clock.nanosec), 100)
+    diag = []  # (stamp ns, gyro_x samples) of the node's /diagnostics
+    if not peer.wait_for_node():
+        finish(False, "fdavar not in the node graph")
+
+    def spin(seconds):
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            rclpy.spin_once(peer, timeout_sec=0.01)
+            rclpy.spin_once(sim, timeout_sec=0.0)
+            while peer.diagnostics:
+                d = peer.diagnostics.pop(0)
+                gx = status(d, "gyro_x")
+                diag.append((d.header.stamp.sec * 10**9 + d.header.stamp.nanosec,
+                             int(kv(gx, "samples") or 0) if gx else 0))
+
+    deadline = time.monotonic() + 90.0
+    while not clock and time.monotonic() < deadline:
+        spin(0.1)
+    if not clock:
+        finish(False, "no /clock received")
+    # Playing: until /clock has been quiet for 2 s (the player ended), then one more second of
+    # /diagnostics.
+    while time.monotonic() < deadline:
+        n = len(clock)
+        spin(2.0)
+        if len(clock) == n:
+            break
+    spin(1.0)
+    now = sim.get_clock().now().nanoseconds
+    finish(True, "", clock_count=len(clock), clock_first=clock[0], clock_last=clock[-1],
+           clock_increasing=all(b > a for a, b in zip(clock, clock[1:])), clock=clock,
+           sim_now=now, diagnostics=diag)
+
+
 AXES = ["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"]
 
 
@@ -492,7 +537,8 @@ def main():
     {"diagnostics": scenario_diagnostics, "params": scenario_params,
      "sim_time": scenario_sim_time, "bad_input": scenario_bad_input, "flood": scenario_flood,
      "expect_samples": scenario_expect_samples, "model": scenario_model,
-     "suggestions": scenario_suggestions, "temperature": scenario_temperature}[scenario](peer)
+     "suggestions": scenario_suggestions, "temperature": scenario_temperature,
+     "play_clock": scenario_play_clock}[scenario](peer)
 
 
 if __name__ == "__main__":

@@ -89,9 +89,12 @@ fn null(recordings: usize, seed: u64) {
     eprintln!("clean axes with a suggestion: {flagged}/{axes}");
 }
 
+/// One family's detection-rate curve: its name, strength scale and (strength, rate) points.
+type Curve<'a> = (&'a str, Scale, Vec<(f64, f64)>);
+
 fn power(per_point: usize, seed: u64, png: Option<&str>) {
     let set = settings(per_point, POWER_GRID, seed);
-    let mut curves: Vec<(&str, Scale, Vec<(f64, f64)>)> = Vec::new();
+    let mut curves: Vec<Curve> = Vec::new();
     println!("| effect | strength | detected | parameters within tolerance (of detected) | named instead |");
     println!("|---|---|---|---|---|");
     for family in families() {
@@ -122,7 +125,7 @@ fn power(per_point: usize, seed: u64, png: Option<&str>) {
 
 /// Detection rate vs strength: spectral effects left (AVAR peak ratio, log axis), time-domain
 /// right (σ).
-fn draw(path: &str, curves: &[(&str, Scale, Vec<(f64, f64)>)]) -> Result<(), Box<dyn std::error::Error>> {
+fn draw(path: &str, curves: &[Curve]) -> Result<(), Box<dyn std::error::Error>> {
     let root = BitMapBackend::new(path, (1200, 520)).into_drawing_area();
     root.fill(&WHITE)?;
     let (left, right) = root.split_horizontally(600);

@@ -420,7 +420,7 @@ impl NoiseSpectrum {
             })
             .collect();
         let total: f64 = spectrum.iter().map(|p| p.1).sum();
-        if !(total > 0.0) {
+        if total.is_nan() || total <= 0.0 {
             return 1.5;
         }
         let rho = |h: f64| {
@@ -533,7 +533,7 @@ impl Whitened {
             .collect();
         let num: f64 = (1..bins).map(|k| (a[k].conj() * self.spectrum[k]).re).sum();
         let den: f64 = (1..bins).map(|k| (a[k].conj() * xs[k]).re).sum();
-        if !(den > 0.0) {
+        if den.is_nan() || den <= 0.0 {
             return None;
         }
         let var_num = 0.5
@@ -548,7 +548,7 @@ impl Whitened {
                     v
                 })
                 .sum::<f64>();
-        if !(var_num > 0.0) {
+        if var_num.is_nan() || var_num <= 0.0 {
             return None;
         }
         let coefficient = num / den;
@@ -656,7 +656,7 @@ pub fn step_scan(y: &[f64], noise: &NoiseSpectrum) -> Option<StepScan> {
         return None;
     }
     let var_d = 2.0 * noise.avar(w as f64 * tau0);
-    if !(var_d > 0.0) {
+    if var_d.is_nan() || var_d <= 0.0 {
         return None;
     }
     let prefix = prefix_sums(y);

@@ -1296,3 +1296,226 @@ fn fdavar_node_help_lists_topics_every_parameter_and_exit_codes_without_starting
         }
     }
 }
+
+/// Effects hidden on gyro_x (a sinusoid, and a noise burst that only the fit with the sinusoid
+/// uncovers) and accel_y (a Gauss–Markov bias); 100 Hz, 120 s.
+const HIDDEN_SPEC: &str = "\
+rate_hz: 100
+duration_s: 120
+seed: 909
+frame_id: imu_link
+topics: { imu: /imu }
+gravity: true
+axes:
+  gyro_x:
+    N: { n: 1.7e-4 }
+    K: { k: 1.9e-5 }
+    sinusoid: { amplitude: 1.5e-3, frequency_hz: 0.2 }
+    noise_burst: { start_s: 40, end_s: 60, factor: 3 }
+  gyro_y:  { N: { n: 1.7e-4 }, K: { k: 1.9e-5 } }
+  gyro_z:  { N: { n: 1.7e-4 }, K: { k: 1.9e-5 } }
+  accel_x: { N: { n: 2.0e-3 }, K: { k: 4.0e-4 } }
+  accel_y:
+    N: { n: 2.0e-3 }
+    gauss_markov: { sigma: 2.0e-2, time_constant_s: 1 }
+  accel_z: { N: { n: 2.0e-3 }, K: { k: 4.0e-4 } }
+";
+
+const AXES: [&str; 6] = ["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"];
+
+/// `fdavar ARGS…` printing one JSON document; panics with its stderr when it does not.
+fn fdavar_json(args: &[&str]) -> serde_json::Value {
+    let out = Command::new(env!("CARGO_BIN_EXE_fdavar"))
+        .args(args)
+        .output()
+        .expect("run fdavar");
+    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
+        panic!(
+            "fdavar {args:?}: {e}\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        )
+    })
+}
+
+/// Where one axis's published whole-run fields (the peer's `whole_run_fields`) differ from the
+/// axis object of `fdavar fit/diagnose --json` on the same messages; every number compared exactly.
+fn whole_run_differences(live: &serde_json::Value, cli: &serde_json::Value) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut same = |what: &str, a: &serde_json::Value, b: &serde_json::Value| {
+        if a != b {
+            out.push(format!("{what}: live {a} offline {b}"));
+        }
+    };
+    same("model", &live["model"], &cli["model"]);
+    same("fit_error", &live["fit_error"], &cli["fit_error"]);
+    same("failing_tau", &live["failing_tau"], &cli["failing_tau"]);
+    same("failing_spans", &live["failing_spans"], &cli["failing_spans"]);
+    // Coefficients: the message's list of {effect, name, value} against the JSON's
+    // {effect: {name: value}}, both ways.
+    let listed = |cs: &serde_json::Value| -> serde_json::Map<String, serde_json::Value> {
+        cs.as_array()
+            .into_iter()
+            .flatten()
+            .map(|c| {
+                let key = format!("{}.{}", c["effect"].as_str().unwrap(), c["name"].as_str().unwrap());
+                (key, c["value"].clone())
+            })
+            .collect()
+    };
+    let nested = |m: &serde_json::Value| -> serde_json::Map<String, serde_json::Value> {
+        m.as_object()
+            .into_iter()
+            .flatten()
+            .flat_map(|(effect, ps)| {
+                ps.as_object()
+                    .into_iter()
+                    .flatten()
+                    .map(move |(name, v)| (format!("{effect}.{name}"), v.clone()))
+            })
+            .collect()
+    };
+    let coefficients = |m| serde_json::Value::Object(m);
+    same(
+        "coefficients",
+        &coefficients(listed(&live["coefficients"])),
+        &coefficients(nested(&cli["coefficients"])),
+    );
+    if let Some(suggested) = cli.get("suggestions") {
+        let effects = |s: &serde_json::Value| -> Vec<serde_json::Value> {
+            s.as_array().into_iter().flatten().map(|x| x["effect"].clone()).collect()
+        };
+        same(
+            "suggested effects",
+            &serde_json::Value::from(effects(&live["suggestions"])),
+            &serde_json::Value::from(effects(suggested)),
+        );
+        if let (Some(l), Some(c)) = (live["suggestions"].get(0), suggested.get(0)) {
+            same("first suggestion's fit_error_after", &l["fit_error_after"], &c["fit_error_after"]);
+            let params: serde_json::Map<String, serde_json::Value> = l["params"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .map(|p| (p["name"].as_str().unwrap().to_string(), p["value"].clone()))
+                .collect();
+            same(
+                "first suggestion's params",
+                &serde_json::Value::Object(params),
+                &c["params"],
+            );
+        }
+    }
+    out
+}
+
+/// The axis object of `fdavar fit|diagnose BAG --json --first N --axis AXIS ARGS…`.
+fn offline_axis(command: &str, bag: &Path, first: u64, axis: &str, args: &[&str]) -> serde_json::Value {
+    let first = first.to_string();
+    let mut all = vec![command, bag.to_str().unwrap(), "--json", "--first", &first, "--axis", axis];
+    all.extend_from_slice(args);
+    fdavar_json(&all)["axes"][0].clone()
+}
+
+#[test]
+fn the_node_on_a_played_recording_publishes_what_fdavar_diagnose_says_and_refits_live() {
+    // Issue 9, done 1–3: `fdavar play --clock` into the node on sim time; at the end each axis's
+    // published model, coefficients, fit_error, failing τ and spans and suggestions are the numbers
+    // of `fdavar diagnose --first N` (N: the node's `diagnosed_messages`); then `model` and
+    // `model.gyro_x` set through SetParameters give the refits `fdavar fit` gives, and the second
+    // hidden effect (the burst) is suggested once the first (the sinusoid) is in the model.
+    let Some(py) = python() else { return };
+    if colcon_install().is_none() {
+        return skip("fdavar_msgs is not built (target/colcon_ws): run .ci/setup-ros.sh");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let spec = dir.path().join("hidden.yaml");
+    std::fs::write(&spec, HIDDEN_SPEC).unwrap();
+    let bag = dir.path().join("rec");
+    let made = Command::new(env!("CARGO_BIN_EXE_fdavar"))
+        .args(["simulate", spec.to_str().unwrap(), "--out", bag.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(made.status.success(), "{}", String::from_utf8_lossy(&made.stderr));
+    let domain = 77;
+    let _node = start_node(
+        domain,
+        &[
+            "-p",
+            "use_sim_time:=true",
+            "-p",
+            "qos.reliable:=true",
+            "-p",
+            "publish_rate_hz:=10.0",
+            "-p",
+            "diagnosis_period_s:=1.0",
+            "-p",
+            "stale_timeout_s:=600.0",
+        ],
+    );
+    let model = "white,bias_instability,random_walk,sinusoid";
+    let axis_model = "white,bias_instability,random_walk,sinusoid,noise_burst";
+    let scenario = format!("whole_run {model} {axis_model}");
+    let peer_thread =
+        std::thread::spawn(move || peer(&py, domain, &scenario, Duration::from_secs(300), None));
+    let mut player = start_play(&bag, domain, &["--clock", "--reliable", "--rate", "4", "--wait-s", "30"]);
+    let status = player.0.wait().unwrap();
+    let mut said = String::new();
+    std::io::Read::read_to_string(player.0.stderr.as_mut().unwrap(), &mut said).unwrap();
+    assert_eq!(status.code(), Some(0), "fdavar play: {said}");
+    assert!(said.contains("12000 IMU"), "{said}");
+    let v = peer_thread.join().unwrap();
+    assert!(v["clock_count"].as_u64().unwrap() > 0, "rclpy received no /clock");
+
+    let messages = |snapshot: &serde_json::Value| snapshot["diagnosed_messages"].as_u64().unwrap();
+    let mut differences = Vec::new();
+    let mut check = |label: &str, axis: &str, live: &serde_json::Value, cli: &serde_json::Value| {
+        eprintln!(
+            "{label} {axis}: {} messages, fit_error live {} offline {}, suggestions {}",
+            messages(live),
+            live["fit_error"],
+            cli["fit_error"],
+            live["suggestions"].as_array().map_or(0, Vec::len)
+        );
+        differences.extend(
+            whole_run_differences(live, cli)
+                .into_iter()
+                .map(|d| format!("{label} {axis}: {d}")),
+        );
+    };
+
+    // 1. As played, model N,B,K: `fdavar diagnose` on the messages the node had diagnosed.
+    for axis in AXES {
+        let live = &v["played"][axis];
+        // The last round started at most a diagnosis period (100 messages) before the end.
+        assert!(messages(live) >= 11_800, "{axis}: {live}");
+        let cli = offline_axis("diagnose", &bag, messages(live), axis, &[]);
+        check("played", axis, live, &cli);
+    }
+    let first = |s: &serde_json::Value| s["suggestions"][0]["effect"].as_str().map(str::to_string);
+    assert_eq!(first(&v["played"]["gyro_x"]).as_deref(), Some("sinusoid"), "{}", v["played"]["gyro_x"]);
+    assert_eq!(first(&v["played"]["accel_y"]).as_deref(), Some("gauss_markov"), "{}", v["played"]["accel_y"]);
+
+    // 2. `model` set live: every axis refitted on all 12000 messages, as `fdavar fit` and
+    //    `fdavar diagnose` with that model say; on gyro_x the burst is now suggested (3).
+    for axis in AXES {
+        let live = &v["model"][axis];
+        assert_eq!(messages(live), 12_000, "{axis}: {live}");
+        let cli = offline_axis("diagnose", &bag, 12_000, axis, &["--model", model]);
+        check("model", axis, live, &cli);
+        let fitted = offline_axis("fit", &bag, 12_000, axis, &["--model", model]);
+        check("model (fit)", axis, live, &fitted);
+    }
+    let before = v["played"]["gyro_x"]["fit_error"].as_f64().unwrap();
+    let with_sinusoid = v["model"]["gyro_x"]["fit_error"].as_f64().unwrap();
+    assert_eq!(first(&v["model"]["gyro_x"]).as_deref(), Some("noise_burst"), "{}", v["model"]["gyro_x"]);
+
+    // 2. `model.gyro_x` set live: gyro_x alone refitted with the burst too.
+    let live = &v["axis_model"]["gyro_x"];
+    let per_axis = format!("gyro_x={axis_model}");
+    let args = ["--model", model, "--model", per_axis.as_str()];
+    check("axis_model", "gyro_x", live, &offline_axis("diagnose", &bag, 12_000, "gyro_x", &args));
+    check("axis_model (fit)", "gyro_x", live, &offline_axis("fit", &bag, 12_000, "gyro_x", &args));
+    let with_burst = live["fit_error"].as_f64().unwrap();
+    eprintln!("gyro_x fit_error live: N,B,K {before:.2} → +sinusoid {with_sinusoid:.2} → +noise_burst {with_burst:.2}");
+    assert!(differences.is_empty(), "live ≠ offline:\n{}", differences.join("\n"));
+    assert!(before > 2.0 && with_sinusoid < before && with_burst < with_sinusoid && with_burst <= 2.0);
+}

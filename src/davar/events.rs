@@ -6,7 +6,7 @@
 //! 2. Its steady level is the robust median ([`RobustLevel`]) of that statistic over the first
 //!    `warmup_rows` rows, then over the rows that are not flagged.
 //! 3. A row is *flagged* when the steady level lies outside the row's own χ² interval at `z`
-//!    standard deviations (two-sided, EDF from [`edf_closed_form`](super::stats::edf_closed_form)):
+//!    standard deviations (two-sided, EDF from [`edf_closed_form`]):
 //!    the row is significantly above or below normal, given how many terms it averaged. The closed
 //!    form is used, not [`edf_overlapping`](super::edf_overlapping), because at m = 1 it is exact
 //!    for white noise (2M/3 for M first differences: adjacent ones correlate at −1/2), while the

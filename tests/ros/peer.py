@@ -21,6 +21,13 @@ Scenarios:
   suggestions N  while `fdavar play` replays N samples, wait until the node counted them, then
                report each axis's suggestions, level and message from /diagnostics (and the typed
                ~/gyro_x/state suggestions when fdavar_msgs is importable); the test judges them.
+  whole_run MODEL AXIS_MODEL
+               while `fdavar play --clock` replays a recording into the node on sim time, check
+               /clock arrives; when it has been quiet for 2 s, snapshot every axis's typed
+               ~/<axis>/state (model, coefficients, fit_error, failing τ, suggestions, diagnosed
+               messages); then set `model` to MODEL and `model.gyro_x` to AXIS_MODEL through
+               SetParameters, snapshotting after each refit. The test compares every number with
+               `fdavar diagnose/fit --first N` on the same bag.
 """
 import json
 import math
@@ -530,6 +537,73 @@ def scenario_suggestions(peer):
     finish(True, "", **result)
 
 
+def finite(x):
+    """JSON has no NaN: a value without one (e.g. a σ the fit could not give) becomes null."""
+    return x if math.isfinite(x) else None
+
+
+def whole_run_fields(state):
+    """The whole-run fields of a typed AxisState, every float exact (json writes repr)."""
+    def coefficients(cs):
+        return [{"effect": c.effect, "name": c.name, "value": finite(c.value),
+                 "sigma": finite(c.sigma), "unit": c.unit} for c in cs]
+    return {
+        "model": list(state.model),
+        "coefficients": coefficients(state.coefficients),
+        "fit_error": finite(state.fit_error),
+        "failing_tau": [[t.low_s, t.high_s] for t in state.failing_tau],
+        "failing_spans": [[t.start_s, t.end_s] for t in state.failing_spans],
+        "suggestions": [{"effect": x.effect, "fit_error_after": finite(x.fit_error_after),
+                         "params": coefficients(x.params)} for x in state.suggestions],
+        "diagnosed_messages": state.diagnosed_messages,
+        "samples": state.samples,
+    }
+
+
+def scenario_whole_run(peer):
+    from fdavar_msgs.msg import AxisState
+    model, axis_model = sys.argv[2], sys.argv[3]
+    clock = []
+    peer.create_subscription(Clock, "/clock", lambda m: clock.append(m.clock.sec), 100)
+    latest = {}
+    for a in AXES:
+        peer.create_subscription(AxisState, f"{NODE}/{a}/state",
+                                 lambda m, a=a: latest.__setitem__(a, m), 10)
+    if not peer.wait_for_node():
+        finish(False, "fdavar not in the node graph")
+    if not peer.spin_until(lambda: bool(clock), 90.0):
+        finish(False, "no /clock received")
+    # Playing until /clock has been quiet for 2 s; then the node's last round on the frozen clock.
+    deadline = time.monotonic() + 240.0
+    while time.monotonic() < deadline:
+        n = len(clock)
+        peer.spin_until(lambda: False, 2.0)
+        if len(clock) == n:
+            break
+    peer.spin_until(lambda: False, 3.0)
+    if len(latest) < len(AXES):
+        finish(False, f"typed state only on {sorted(latest)}")
+    snapshots = {"played": {a: whole_run_fields(latest[a]) for a in AXES}}
+
+    def refit(name, value, axes, label):
+        r = peer.call(SetParameters, f"{NODE}/set_parameters",
+                      SetParameters.Request(parameters=[param(name, value)]))
+        if not r or not r.results[0].successful:
+            finish(False, f"{name}:={value} refused", result=str(r), **snapshots)
+        want = value.split(",")
+        # The change starts a round at once, one axis per publication (10 Hz): wait for each
+        # axis to show the new model, then one more publication.
+        if not peer.spin_until(lambda: all(list(latest[a].model) == want for a in axes), 30.0):
+            finish(False, f"{name}:={value} never published",
+                   models={a: list(latest[a].model) for a in axes}, **snapshots)
+        peer.spin_until(lambda: False, 0.5)
+        snapshots[label] = {a: whole_run_fields(latest[a]) for a in axes}
+
+    refit("model", model, AXES, "model")
+    refit("model.gyro_x", axis_model, ["gyro_x"], "axis_model")
+    finish(True, "", clock_count=len(clock), **snapshots)
+
+
 def main():
     rclpy.init()
     peer = Peer()
@@ -538,7 +612,7 @@ def main():
      "sim_time": scenario_sim_time, "bad_input": scenario_bad_input, "flood": scenario_flood,
      "expect_samples": scenario_expect_samples, "model": scenario_model,
      "suggestions": scenario_suggestions, "temperature": scenario_temperature,
-     "play_clock": scenario_play_clock}[scenario](peer)
+     "play_clock": scenario_play_clock, "whole_run": scenario_whole_run}[scenario](peer)
 
 
 if __name__ == "__main__":

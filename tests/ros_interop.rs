@@ -1415,27 +1415,17 @@ fn offline_axis(command: &str, bag: &Path, first: u64, axis: &str, args: &[&str]
     fdavar_json(&all)["axes"][0].clone()
 }
 
-#[test]
-fn the_node_on_a_played_recording_publishes_what_fdavar_diagnose_says_and_refits_live() {
-    // Issue 9, done 1–3: `fdavar play --clock` into the node on sim time; at the end each axis's
-    // published model, coefficients, fit_error, failing τ and spans and suggestions are the numbers
-    // of `fdavar diagnose --first N` (N: the node's `diagnosed_messages`); then `model` and
-    // `model.gyro_x` set through SetParameters give the refits `fdavar fit` gives, and the second
-    // hidden effect (the burst) is suggested once the first (the sinusoid) is in the model.
-    let Some(py) = python() else { return };
-    if colcon_install().is_none() {
-        return skip("fdavar_msgs is not built (target/colcon_ws): run .ci/setup-ros.sh");
-    }
-    let dir = tempfile::tempdir().unwrap();
-    let spec = dir.path().join("hidden.yaml");
-    std::fs::write(&spec, HIDDEN_SPEC).unwrap();
-    let bag = dir.path().join("rec");
-    let made = Command::new(env!("CARGO_BIN_EXE_fdavar"))
-        .args(["simulate", spec.to_str().unwrap(), "--out", bag.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(made.status.success(), "{}", String::from_utf8_lossy(&made.stderr));
-    let domain = 77;
+/// The models the replay tests set live: `model`, then `model.gyro_x`.
+const LIVE_MODEL: &str = "white,bias_instability,random_walk,sinusoid";
+const LIVE_AXIS_MODEL: &str = "white,bias_instability,random_walk,sinusoid,noise_burst";
+
+/// Replays `bag` (`messages` IMU messages) with `fdavar play --clock` into the node on sim time,
+/// has the rclpy peer snapshot every axis's typed state at the end, after `model` and after
+/// `model.gyro_x` ([`LIVE_MODEL`], [`LIVE_AXIS_MODEL`]), and compares each snapshot with
+/// `fdavar diagnose` and `fdavar fit --first N` on the bag. Returns the peer's verdict and every
+/// difference found (none when live = offline).
+fn replay_and_compare(bag: &Path, messages: u64, domain: u16) -> (serde_json::Value, Vec<String>) {
+    let py = python().expect("checked by the caller");
     let _node = start_node(
         domain,
         &[
@@ -1451,26 +1441,24 @@ fn the_node_on_a_played_recording_publishes_what_fdavar_diagnose_says_and_refits
             "stale_timeout_s:=600.0",
         ],
     );
-    let model = "white,bias_instability,random_walk,sinusoid";
-    let axis_model = "white,bias_instability,random_walk,sinusoid,noise_burst";
-    let scenario = format!("whole_run {model} {axis_model}");
+    let scenario = format!("whole_run {LIVE_MODEL} {LIVE_AXIS_MODEL}");
     let peer_thread =
         std::thread::spawn(move || peer(&py, domain, &scenario, Duration::from_secs(300), None));
-    let mut player = start_play(&bag, domain, &["--clock", "--reliable", "--rate", "4", "--wait-s", "30"]);
+    let mut player = start_play(bag, domain, &["--clock", "--reliable", "--rate", "4", "--wait-s", "30"]);
     let status = player.0.wait().unwrap();
     let mut said = String::new();
     std::io::Read::read_to_string(player.0.stderr.as_mut().unwrap(), &mut said).unwrap();
     assert_eq!(status.code(), Some(0), "fdavar play: {said}");
-    assert!(said.contains("12000 IMU"), "{said}");
+    assert!(said.contains(&format!("{messages} IMU")), "{said}");
     let v = peer_thread.join().unwrap();
     assert!(v["clock_count"].as_u64().unwrap() > 0, "rclpy received no /clock");
 
-    let messages = |snapshot: &serde_json::Value| snapshot["diagnosed_messages"].as_u64().unwrap();
+    let diagnosed = |snapshot: &serde_json::Value| snapshot["diagnosed_messages"].as_u64().unwrap();
     let mut differences = Vec::new();
     let mut check = |label: &str, axis: &str, live: &serde_json::Value, cli: &serde_json::Value| {
         eprintln!(
             "{label} {axis}: {} messages, fit_error live {} offline {}, suggestions {}",
-            messages(live),
+            diagnosed(live),
             live["fit_error"],
             cli["fit_error"],
             live["suggestions"].as_array().map_or(0, Vec::len)
@@ -1481,41 +1469,104 @@ fn the_node_on_a_played_recording_publishes_what_fdavar_diagnose_says_and_refits
                 .map(|d| format!("{label} {axis}: {d}")),
         );
     };
-
-    // 1. As played, model N,B,K: `fdavar diagnose` on the messages the node had diagnosed.
+    // As played (model N,B,K): the last round started at most a diagnosis period (1 s of
+    // samples) before the end; `--first` cuts the bag where the node's round did.
     for axis in AXES {
         let live = &v["played"][axis];
-        // The last round started at most a diagnosis period (100 messages) before the end.
-        assert!(messages(live) >= 11_800, "{axis}: {live}");
-        let cli = offline_axis("diagnose", &bag, messages(live), axis, &[]);
-        check("played", axis, live, &cli);
+        assert!(diagnosed(live) + 200 >= messages, "{axis}: {live}");
+        check("played", axis, live, &offline_axis("diagnose", bag, diagnosed(live), axis, &[]));
     }
-    let first = |s: &serde_json::Value| s["suggestions"][0]["effect"].as_str().map(str::to_string);
-    assert_eq!(first(&v["played"]["gyro_x"]).as_deref(), Some("sinusoid"), "{}", v["played"]["gyro_x"]);
-    assert_eq!(first(&v["played"]["accel_y"]).as_deref(), Some("gauss_markov"), "{}", v["played"]["accel_y"]);
-
-    // 2. `model` set live: every axis refitted on all 12000 messages, as `fdavar fit` and
-    //    `fdavar diagnose` with that model say; on gyro_x the burst is now suggested (3).
+    // `model` set live: a round at once, on every message.
     for axis in AXES {
         let live = &v["model"][axis];
-        assert_eq!(messages(live), 12_000, "{axis}: {live}");
-        let cli = offline_axis("diagnose", &bag, 12_000, axis, &["--model", model]);
-        check("model", axis, live, &cli);
-        let fitted = offline_axis("fit", &bag, 12_000, axis, &["--model", model]);
-        check("model (fit)", axis, live, &fitted);
+        assert_eq!(diagnosed(live), messages, "{axis}: {live}");
+        let args = ["--model", LIVE_MODEL];
+        check("model", axis, live, &offline_axis("diagnose", bag, messages, axis, &args));
+        check("model (fit)", axis, live, &offline_axis("fit", bag, messages, axis, &args));
     }
-    let before = v["played"]["gyro_x"]["fit_error"].as_f64().unwrap();
-    let with_sinusoid = v["model"]["gyro_x"]["fit_error"].as_f64().unwrap();
-    assert_eq!(first(&v["model"]["gyro_x"]).as_deref(), Some("noise_burst"), "{}", v["model"]["gyro_x"]);
-
-    // 2. `model.gyro_x` set live: gyro_x alone refitted with the burst too.
+    // `model.gyro_x` set live: gyro_x refitted with the burst too.
     let live = &v["axis_model"]["gyro_x"];
-    let per_axis = format!("gyro_x={axis_model}");
-    let args = ["--model", model, "--model", per_axis.as_str()];
-    check("axis_model", "gyro_x", live, &offline_axis("diagnose", &bag, 12_000, "gyro_x", &args));
-    check("axis_model (fit)", "gyro_x", live, &offline_axis("fit", &bag, 12_000, "gyro_x", &args));
-    let with_burst = live["fit_error"].as_f64().unwrap();
-    eprintln!("gyro_x fit_error live: N,B,K {before:.2} → +sinusoid {with_sinusoid:.2} → +noise_burst {with_burst:.2}");
+    let per_axis = format!("gyro_x={LIVE_AXIS_MODEL}");
+    let args = ["--model", LIVE_MODEL, "--model", per_axis.as_str()];
+    check("axis_model", "gyro_x", live, &offline_axis("diagnose", bag, messages, "gyro_x", &args));
+    check("axis_model (fit)", "gyro_x", live, &offline_axis("fit", bag, messages, "gyro_x", &args));
+    (v, differences)
+}
+
+#[test]
+fn the_node_on_a_played_recording_publishes_what_fdavar_diagnose_says_and_refits_live() {
+    // Issue 9, done 1–3: `fdavar play --clock` into the node on sim time; at the end each axis's
+    // published model, coefficients, fit_error, failing τ and spans and suggestions are the numbers
+    // of `fdavar diagnose --first N` (N: the node's `diagnosed_messages`); then `model` and
+    // `model.gyro_x` set through SetParameters give the refits `fdavar fit` gives, and the second
+    // hidden effect (the burst) is suggested once the first (the sinusoid) is in the model.
+    if python().is_none() {
+        return;
+    }
+    if colcon_install().is_none() {
+        return skip("fdavar_msgs is not built (target/colcon_ws): run .ci/setup-ros.sh");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let spec = dir.path().join("hidden.yaml");
+    std::fs::write(&spec, HIDDEN_SPEC).unwrap();
+    let bag = dir.path().join("rec");
+    let made = Command::new(env!("CARGO_BIN_EXE_fdavar"))
+        .args(["simulate", spec.to_str().unwrap(), "--out", bag.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(made.status.success(), "{}", String::from_utf8_lossy(&made.stderr));
+    let (v, differences) = replay_and_compare(&bag, 12_000, 77);
     assert!(differences.is_empty(), "live ≠ offline:\n{}", differences.join("\n"));
+
+    let first = |s: &serde_json::Value| s["suggestions"][0]["effect"].as_str().map(str::to_string);
+    let (played, model, axis_model) = (&v["played"], &v["model"], &v["axis_model"]);
+    assert_eq!(first(&played["gyro_x"]).as_deref(), Some("sinusoid"), "{}", played["gyro_x"]);
+    assert_eq!(first(&played["accel_y"]).as_deref(), Some("gauss_markov"), "{}", played["accel_y"]);
+    assert_eq!(first(&model["gyro_x"]).as_deref(), Some("noise_burst"), "{}", model["gyro_x"]);
+    for axis in ["gyro_y", "gyro_z", "accel_x", "accel_z"] {
+        assert_eq!(played[axis]["suggestions"], serde_json::json!([]), "{axis}");
+    }
+    let fit_error = |s: &serde_json::Value| s["gyro_x"]["fit_error"].as_f64().unwrap();
+    let (before, with_sinusoid, with_burst) = (fit_error(played), fit_error(model), fit_error(axis_model));
+    eprintln!("gyro_x fit_error live: N,B,K {before:.2} → +sinusoid {with_sinusoid:.2} → +noise_burst {with_burst:.2}");
     assert!(before > 2.0 && with_sinusoid < before && with_burst < with_sinusoid && with_burst <= 2.0);
+}
+
+#[test]
+fn live_equals_offline_on_a_recording_with_nan_a_gap_and_a_backwards_stamp() {
+    // Issue 9, done 4: the node and `fdavar diagnose/fit` drop and place the same samples (one
+    // intake), so a recording with NaN and Inf samples, a 2 s gap and a stamp going backwards
+    // still gives the same numbers live and offline.
+    if python().is_none() {
+        return;
+    }
+    if colcon_install().is_none() {
+        return skip("fdavar_msgs is not built (target/colcon_ws): run .ci/setup-ros.sh");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let bag = dir.path().join("rec");
+    let mut samples = sinusoid_samples();
+    samples[3000].gyro[1] = f64::NAN;
+    samples[5000].accel[0] = f64::INFINITY;
+    samples.drain(6000..6400);
+    samples[8000].stamp_ns = samples[7999].stamp_ns - 3_000_000;
+    let messages = samples.len() as u64;
+    // Log times in write order, 5 ms apart, as a recorder receiving them would have logged them.
+    let mut writer = fdavar::bag::BagWriter::create(&bag).unwrap();
+    for (k, s) in samples.iter().enumerate() {
+        let log = log_time_ns(s.stamp_ns.max(samples[k.saturating_sub(1)].stamp_ns));
+        writer.write_imu("/imu", log, s, "imu_link").unwrap();
+    }
+    writer.finish().unwrap();
+    let (v, differences) = replay_and_compare(&bag, messages, 78);
+    assert!(differences.is_empty(), "live ≠ offline:\n{}", differences.join("\n"));
+    // And says what it left out: three messages (NaN, Inf, the backwards stamp) not counted as
+    // samples; four holes in the series (those three and the 2 s gap); no queue drops.
+    for axis in AXES {
+        let s = &v["model"][axis];
+        eprintln!("{axis}: samples {} drops {} gaps {}", s["samples"], s["drops"], s["gaps"]);
+        assert_eq!(s["samples"].as_u64(), Some(messages - 3), "{axis}");
+        assert_eq!(s["gaps"].as_u64(), Some(4), "{axis}");
+        assert_eq!(s["drops"].as_u64(), Some(0), "{axis}");
+    }
 }

@@ -557,6 +557,8 @@ def whole_run_fields(state):
                          "params": coefficients(x.params)} for x in state.suggestions],
         "diagnosed_messages": state.diagnosed_messages,
         "samples": state.samples,
+        "drops": state.drops,
+        "gaps": state.gaps,
     }
 
 

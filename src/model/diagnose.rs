@@ -10,7 +10,7 @@
 //!   [`SPECTRAL_PENALTY`] plus [`SHAPE_PENALTY`] per shape parameter searched — an information
 //!   criterion on the Allan variance as GMWM's WVIC is on the wavelet variance, with penalties
 //!   calibrated by simulation instead of AIC's 2 per parameter;
-//! - **time-domain effects** (tried only with their evidence, DESIGN §6): a regression on the
+//! - **time-domain effects** (tried only with their evidence, docs/design.md §6): a regression on the
 //!   driver (temperature, each accel axis), the best step over all times, or the loudest span of
 //!   white noise, each tested against the fitted coloured noise ([`timedomain::Whitened`],
 //!   [`timedomain::NoiseSpectrum`]), significant below [`TIME_ALPHA`] (the burst: above

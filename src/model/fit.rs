@@ -38,7 +38,7 @@ use crate::signal::Axis;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-/// |z| above which a τ is "failing" (DESIGN §5, **contract**).
+/// |z| above which a τ is "failing" (docs/design.md §5, **contract**).
 pub const FAILING_Z: f64 = 3.0;
 
 /// Fewest rate samples a whole-record fit accepts.
@@ -94,7 +94,7 @@ pub struct AxisInput<'a> {
 pub struct FitOptions {
     /// τ grid of the whole-record Allan variance.
     pub grid: TauGrid,
-    /// Largest averaging factor as a fraction of the record (DESIGN §2: W/3).
+    /// Largest averaging factor as a fraction of the record (docs/design.md §2: W/3).
     pub max_m_fraction: f64,
     /// Rounds of "fit, recompute weights and EDF from the model".
     pub weight_iterations: usize,

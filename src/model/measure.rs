@@ -3,7 +3,7 @@
 //! The fit needs the EDF *of the noise that is actually there*: an estimate at long τ dominated by
 //! rate random walk has far fewer degrees of freedom than a white-noise formula claims, and a fit
 //! weighted with the wrong EDF reports a failure where there is none. So the EDF is recomputed
-//! from the fitted model's noise mix ([`edf_for_mix`]), iterating with the weights (DESIGN §5).
+//! from the fitted model's noise mix ([`edf_for_mix`]), iterating with the weights (docs/design.md §5).
 //! The simple closed forms of NIST SP 1065 Table 12 are used (documented there as within a few
 //! per cent of Greenhall's algorithm for the overlapping estimator).
 //!

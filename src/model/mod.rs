@@ -5,7 +5,7 @@
 //! measures the whole-record Allan variance ([`measure`]) and fits the stationary effects by
 //! weighted non-negative least squares ([`nnls`]); [`diagnose::diagnose`] refits with each effect
 //! the model lacks and keeps the gains that pay for their parameters.
-//! [`record`] lays bag samples out for the fitter; [`output`] is the JSON of DESIGN §7 and the
+//! [`record`] lays bag samples out for the fitter; [`output`] is the JSON of docs/design.md §7 and the
 //! figures' data.
 
 pub mod diagnose;

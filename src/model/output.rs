@@ -1,4 +1,4 @@
-//! The JSON of `fdavar fit` / `fdavar diagnose` (DESIGN §7, **contract**) and the figures' data.
+//! The JSON of `fdavar fit` / `fdavar diagnose` (docs/design.md §7, **contract**) and the figures' data.
 //!
 //! `{"axes": [{"axis", "model": [names], "fit_error", "coefficients": {effect: {param: value}},
 //! "failing_tau": [[lo, hi]], "events": [{"effect", ...params}], "suggestions": [{"effect",

@@ -2,7 +2,7 @@
 //!
 //! Samples arrive placed by the [`Intake`] (the one place that decides τ0, drops duplicate and
 //! backwards stamps and finds gaps; the DAVAR pipeline uses the same): a gap becomes NaN samples
-//! (so that no Allan term straddles it, DESIGN §1), a NaN value stays NaN in its axis, and the
+//! (so that no Allan term straddles it, docs/design.md §1), a NaN value stays NaN in its axis, and the
 //! temperature is interpolated linearly at each sample time. The live node and the CLI grow the
 //! same [`RecordBuilder`] sample by sample, so the fitter sees the same numbers in both.
 //!

@@ -3,7 +3,7 @@
 //! A bias step or a noise burst has no τ-law (its Allan signature depends on where it sits in the
 //! record), and temperature or g-sensitivity is best measured against the signal that drives it.
 //! So these effects are estimated on the rate samples, and removed from them before the Allan fit
-//! of the rest. The estimators are chosen by the effect's contract id (DESIGN §4); every value
+//! of the rest. The estimators are chosen by the effect's contract id (docs/design.md §4); every value
 //! goes through the effect's `build`, which validates it.
 //!
 //! Estimation order: the regressions first (temperature, g-sensitivity: they explain the slow and

@@ -3,7 +3,7 @@
 //!
 //! Why no node-specific maths here: what the node publishes — the DAVAR rows, and the whole run's
 //! coefficients with their 1σ, fit_error, failing τ and time spans, suggestions — must be the
-//! numbers `fdavar diagnose` prints for the same samples (DESIGN §7). This file only converts.
+//! numbers `fdavar diagnose` prints for the same samples (docs/design.md §7). This file only converts.
 //! A live change of a DAVAR parameter restarts the rows (half a window later, on the new
 //! settings); the whole-run record carries on. A new model applies at the next diagnosis.
 

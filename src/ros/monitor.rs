@@ -49,7 +49,7 @@ pub struct WholeRun {
     pub model: Vec<String>,
     /// Its fitted coefficients with 1σ.
     pub coefficients: Vec<Coefficient>,
-    /// fit_error (DESIGN §5).
+    /// fit_error (docs/design.md §5).
     pub fit_error: f64,
     /// Maximal τ intervals where |z| > 3.
     pub failing_tau: Vec<TauInterval>,
@@ -347,7 +347,7 @@ impl Monitor {
             self.frame_id = frame_id.to_string();
         }
         // The clock of the stream is chosen by its first message: the sensor's stamps, or the
-        // receive time when the driver leaves stamps zero (DESIGN §1). A zero stamp inside a
+        // receive time when the driver leaves stamps zero (docs/design.md §1). A zero stamp inside a
         // stamped stream cannot be placed on the sensor clock: the engine drops it (it is earlier
         // than every stamp), and it is counted here.
         let by_receive_time = *self.receive_time_stamps.get_or_insert(sample.stamp_ns == 0);

@@ -1,4 +1,4 @@
-//! The effect vocabulary (DESIGN §4, **contract** names): one file per physical effect.
+//! The effect vocabulary (docs/design.md §4, **contract** names): one file per physical effect.
 //!
 //! Each effect file holds its parameters, its Allan signature or time-domain form, its simulation
 //! and its explanation. The simulator, the fitter, the diagnosis, the messages and the docs all read
@@ -85,7 +85,7 @@ pub enum SimStage {
     Output,
 }
 
-/// What evidence the diagnosis needs before it may suggest an effect (DESIGN §6).
+/// What evidence the diagnosis needs before it may suggest an effect (docs/design.md §6).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Evidence {
@@ -114,7 +114,7 @@ pub struct ParamSpec {
 
 impl ParamSpec {
     /// The unit of this parameter on `axis`: as written for a gyro axis, with rad read as m/s on
-    /// an accel axis (DESIGN §4), e.g. `rad/s/sqrt(Hz)` → `m/s^2/sqrt(Hz)`.
+    /// an accel axis (docs/design.md §4), e.g. `rad/s/sqrt(Hz)` → `m/s^2/sqrt(Hz)`.
     ///
     /// ```
     /// use fdavar::model::effects::find;

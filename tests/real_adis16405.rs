@@ -118,3 +118,66 @@ fn adis16405_gyro_z_is_the_low_pass_and_a_21_hz_line() {
     assert!((25.0..=330.0).contains(&fc), "cut-off {fc}");
     assert!((20.0..=22.0).contains(&line), "line {line}");
 }
+
+/// The accel axes (issue 10, Done 2 — the part that holds; see docs/model.md, "On the ADIS16405"):
+/// the diagnosis of N,B,K names both the low-pass (`bandwidth`) and the 0.56 Hz vibration line
+/// (`sinusoid`) on every axis, and the model B,K,bandwidth,sinusoid has physical parameters — noise
+/// density within a factor 2 of the data sheet's 0.5 mg/√Hz (4.9e-3 m/s²/√Hz:
+/// ../shared/reference/imu_noise_params.md, "datasheet, approximate"; the README's ADEV of
+/// 0.5–0.7 mg at 1 s says the same), cut-off between 25 Hz and the 330 Hz sensor bandwidth, the line
+/// at 0.50–0.65 Hz — and lowers fit_error at least 3× on every axis. The whole-record Allan variance
+/// of accel_z fits (whole-record fit_error ≤ 2, green points within 1σ ≥ 60 %: measured 1.51, 76 %;
+/// on accel_x/y 45 % and 57 %); fit_error ≤ 2 itself does NOT hold on any accel axis
+/// (measured 5.93, 7.36, 3.44): the span check fails because the record is not stationary at the
+/// level the large EDF of 100 Hz samples resolves (the 0.56 Hz line's power varies by ±15–20 %
+/// between 450 s spans — a resonance driven by ambient vibration has a random amplitude, which one
+/// sinusoid of fixed amplitude does not describe; accel_y's white level is 15 % lower in the first
+/// half hour than in the second), and accel_x/y carry a second line near 10 Hz (z of +25 / −13 at
+/// 0.03–0.1 s) that the vocabulary's one sinusoid per axis cannot add.
+#[test]
+fn adis16405_accel_is_the_low_pass_and_a_0_56_hz_line() {
+    let Some(path) = recording() else {
+        println!("skipped: ../shared/reference/real/adis16405_static_run1.csv.gz is absent");
+        return;
+    };
+    let cols = read(&path);
+    let opts = FitOptions::default();
+    let base = ModelSpec::parse("N,B,K").unwrap();
+    let spec = ModelSpec::parse("B,K,bandwidth,sinusoid").unwrap();
+    // Data sheet noise density, 0.5 mg/√Hz in m/s²/√Hz (imu_noise_params.md).
+    let datasheet_n = 0.5e-3 * 9.80665;
+    for (axis, rate) in [(Axis::AccelX, &cols[3]), (Axis::AccelY, &cols[4]), (Axis::AccelZ, &cols[5])] {
+        let d = diagnose(&input(axis, rate), &base, REGISTRY, &opts).unwrap();
+        let names: Vec<&str> = d.suggestions.iter().map(|s| s.effect.as_str()).collect();
+        println!("{}: N,B,K fit_error {:.2}, suggestions {names:?}", axis.name(), d.fit.fit_error);
+        assert!(names.contains(&"bandwidth") && names.contains(&"sinusoid"), "{}: {names:?}", axis.name());
+        assert!(
+            matches!(names.first(), Some(&"bandwidth") | Some(&"sinusoid")),
+            "{}: {names:?}",
+            axis.name()
+        );
+        let f = fit(&input(axis, rate), &spec, REGISTRY, &opts).unwrap();
+        let bw = f.term("bandwidth").unwrap();
+        let n = bw.param("n").unwrap().value;
+        let fc = bw.param("cutoff_hz").unwrap().value;
+        let line = f.term("sinusoid").unwrap().param("frequency_hz").unwrap().value;
+        let share = green_within_one_sigma(&f);
+        println!(
+            "{}: B,K,bandwidth,sinusoid fit_error {:.2} (whole record {:.2}), n {:.3} mg/sqrt(Hz), \
+             cut-off {fc:.1} Hz, line {line:.3} Hz, green points within 1 sigma {:.0} %",
+            axis.name(),
+            f.fit_error,
+            f.whole_fit_error,
+            n / 9.80665e-3,
+            100.0 * share
+        );
+        assert!((0.5 * datasheet_n..=2.0 * datasheet_n).contains(&n), "{}: n {n}", axis.name());
+        assert!((25.0..=330.0).contains(&fc), "{}: cut-off {fc}", axis.name());
+        assert!((0.50..=0.65).contains(&line), "{}: line {line}", axis.name());
+        assert!(3.0 * f.fit_error <= d.fit.fit_error, "{}: {} -> {}", axis.name(), d.fit.fit_error, f.fit_error);
+        if axis == Axis::AccelZ {
+            assert!(f.whole_fit_error <= 2.0, "accel_z whole-record fit_error {}", f.whole_fit_error);
+            assert!(share >= 0.6, "accel_z: {share}");
+        }
+    }
+}

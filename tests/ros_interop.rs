@@ -1420,6 +1420,19 @@ fn offline_axis(command: &str, bag: &Path, first: u64, axis: &str, args: &[&str]
     fdavar_json(&all)["axes"][0].clone()
 }
 
+/// Whether rclpy and the colcon-built `fdavar_msgs` (the typed AxisState) are there; says why
+/// not (a failure under `FDAVAR_REQUIRE_PYTHON=1`).
+fn typed_peer_ready() -> bool {
+    if python().is_none() {
+        return false;
+    }
+    if colcon_install().is_none() {
+        skip("fdavar_msgs is not built (target/colcon_ws): run .ci/setup-ros.sh");
+        return false;
+    }
+    true
+}
+
 /// The models the replay tests set live: `model`, then `model.gyro_x`.
 const LIVE_MODEL: &str = "white,bias_instability,random_walk,sinusoid";
 const LIVE_AXIS_MODEL: &str = "white,bias_instability,random_walk,sinusoid,noise_burst";
@@ -1505,11 +1518,8 @@ fn the_node_on_a_played_recording_publishes_what_fdavar_diagnose_says_and_refits
     // of `fdavar diagnose --first N` (N: the node's `diagnosed_messages`); then `model` and
     // `model.gyro_x` set through SetParameters give the refits `fdavar fit` gives, and the second
     // hidden effect (the burst) is suggested once the first (the sinusoid) is in the model.
-    if python().is_none() {
+    if !typed_peer_ready() {
         return;
-    }
-    if colcon_install().is_none() {
-        return skip("fdavar_msgs is not built (target/colcon_ws): run .ci/setup-ros.sh");
     }
     let dir = tempfile::tempdir().unwrap();
     let spec = dir.path().join("hidden.yaml");
@@ -1542,11 +1552,8 @@ fn live_equals_offline_on_a_recording_with_nan_a_gap_and_a_backwards_stamp() {
     // Issue 9, done 4: the node and `fdavar diagnose/fit` drop and place the same samples (one
     // intake), so a recording with NaN and Inf samples, a 2 s gap and a stamp going backwards
     // still gives the same numbers live and offline.
-    if python().is_none() {
+    if !typed_peer_ready() {
         return;
-    }
-    if colcon_install().is_none() {
-        return skip("fdavar_msgs is not built (target/colcon_ws): run .ci/setup-ros.sh");
     }
     let dir = tempfile::tempdir().unwrap();
     let bag = dir.path().join("rec");

@@ -45,7 +45,7 @@ const NULL_GRID: &[(f64, f64)] = &[
 const POWER_GRID: &[(f64, f64)] = &[(100.0, 20.0), (200.0, 20.0), (400.0, 20.0), (100.0, 60.0)];
 
 /// Strengths per scale: AVAR peak ratio, σ of the test.
-const LADDER: [&[f64]; 2] = [&[0.1, 0.2, 0.35, 0.5, 1.0, 2.0], &[3.0, 4.0, 5.0, 6.0, 8.0]];
+const LADDER: [&[f64]; 2] = [&[0.5, 1.0, 2.0, 4.0, 8.0, 16.0], &[4.0, 8.0, 12.0, 16.0, 24.0]];
 
 fn null(recordings: usize, seed: u64) {
     let nbk = ModelSpec::parse_in("N,B,K", REGISTRY).unwrap();

@@ -31,18 +31,13 @@ fn clean_axes_rarely_get_a_suggestion() {
     assert!(flagged.len() * 50 <= 6 * set.len(), "{flagged:#?}");
 }
 
-/// Not met yet (issue 10 stays open): measured 2026-11-23 with this test (`cargo test --release
-/// --test diagnosis_power -- --ignored`), named first / parameters within tolerance of 20:
-/// sinusoid 17/14, gauss_markov 16/12, ramp 0/0 (an AVAR ratio of 2 at the longest τ, whose EDF is
-/// about 2, is not evidence), quantization 20/20, bias_step (8σ) 10/4, noise_burst 20/15,
-/// temperature 14/12, g_sensitivity 20/9. Ignored so that CI reports the suites that hold; run it
-/// with `--ignored` when working on the diagnosis's power.
-#[test]
-#[ignore = "issue 10: power below 90 % at the stated visibility for 7 of 8 effects (numbers in the doc comment)"]
-fn hidden_effects_are_named_at_their_stated_visibility() {
+/// Each family at its stated visibility (tests/power_common `Family::visible`, read off the measured
+/// curves in docs/model.md): named first in at least 90 % of 20 recordings, parameters within
+/// tolerance in at least 90 % of those. Returns the families that fall short.
+fn check_visibility(families: impl Iterator<Item = power_common::Family>) -> Vec<String> {
     let set = settings(20, GRID, 40_000);
     let mut failures = Vec::new();
-    for family in families() {
+    for family in families {
         let out = power_point(&family, family.visible, &set, 2);
         let detected = out.iter().filter(|o| o.detected).count();
         let ok = out.iter().filter(|o| o.params_ok).count();
@@ -52,5 +47,21 @@ fn hidden_effects_are_named_at_their_stated_visibility() {
             failures.push(format!("{}: {detected}/{} named, {ok} within tolerance", family.name, out.len()));
         }
     }
+    failures
+}
+
+#[test]
+fn hidden_effects_are_named_at_their_stated_visibility() {
+    let failures = check_visibility(families().into_iter().filter(|f| f.short.is_none()));
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+/// The families that do not meet the contract at any measured strength (issue 10 stays open for
+/// them; `Family::short` says why). Run with `cargo test --release --test diagnosis_power --
+/// --ignored`; it fails until they are fixed.
+#[test]
+#[ignore = "issue 10: ramp (absorbed by K) and g_sensitivity (biased coefficient) fall short; see Family::short"]
+fn the_families_known_to_fall_short_meet_the_contract() {
+    let failures = check_visibility(families().into_iter().filter(|f| f.short.is_some()));
     assert!(failures.is_empty(), "{failures:#?}");
 }

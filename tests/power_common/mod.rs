@@ -302,9 +302,10 @@ fn g_sensitivity(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
 /// 16 — random walk K absorbs it (K fitted 2–5× its truth, the ramp's χ² gain 2.6–9.3 against a
 /// threshold of 12). A ramp is a deterministic trend, which a time-domain trend test would see.
 const RAMP_SHORT: &str = "ramp: absorbed by random walk K up to an AVAR ratio of 16";
-/// Measured (2026-11-23): named first in 9–10 of 10 from 8σ up, but the coefficient is within
-/// 10 % in only 6–7 of 10 even at 24σ (errors up to 11 % where the test's 1σ is 4 %): the
-/// estimate is biased, not noisy.
+/// Measured (2026-11-23, `examples/diagnosis_power.rs power 10 7`, records of 20–60 min): named
+/// first in 9–10 of 10 from 8σ up, but the coefficient is within 10 % in only 6–7 of 10 even at
+/// 24σ (errors up to 11 % where the test's 1σ is 4 %): the estimate is biased, not noisy. (On the
+/// CI check's 10–20 min records it holds: 19 of 20.)
 const G_SENSITIVITY_SHORT: &str = "g_sensitivity: coefficient biased by up to 11 % at 24 sigma";
 
 /// Every effect beyond N, B, K, with the id read from an instance of it.

@@ -38,9 +38,10 @@ ln -sfn "$ROOT/msg" "$WS/src/fdavar_msgs"
 # Keep colcon out of build products and the venv.
 for d in "$ROOT/target" "$VENV"; do touch "$d/COLCON_IGNORE"; done
 
-# colcon-ros-cargo runs `cargo build --target-dir $WS/build/fdavar` (dev profile): point that at
-# the repository's own target/ so the workspace build reuses what `cargo build`/`cargo test` made
-# instead of compiling every dependency a second time (CI time budget).
+# colcon-ros-cargo runs `cargo build --target-dir $WS/build/fdavar`: point that at the repository's
+# own target/, and build the release profile (`--cargo-args --release`), so that the workspace build,
+# `cargo run --release` and `cargo test --release` share one build of every dependency instead of
+# compiling them twice (CI time budget, disk).
 mkdir -p "$WS/build"
 if [ ! -e "$WS/build/fdavar" ]; then ln -s "$ROOT/target" "$WS/build/fdavar"; fi
 
@@ -50,7 +51,8 @@ export AMENT_PREFIX_PATH=$VIRTUAL_ENV
 cd "$WS"
 colcon list
 # shellcheck disable=SC2086
-colcon build --packages-select ${FDAVAR_COLCON_PACKAGES:-fdavar_msgs fdavar} --event-handlers console_direct- 
+colcon build --packages-select ${FDAVAR_COLCON_PACKAGES:-fdavar_msgs fdavar} --event-handlers console_direct- \
+  --cargo-args --release
 test -x "$WS/install/fdavar/lib/fdavar/fdavar_node" || [ "${FDAVAR_COLCON_PACKAGES:-}" = fdavar_msgs ]
 set +u
 # shellcheck disable=SC1091

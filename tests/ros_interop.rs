@@ -826,7 +826,8 @@ fn colcon_build_of_the_workspace_installs_the_node_where_ros2_run_looks_and_the_
         .arg("-c")
         .arg(format!(
             ". {}/bin/activate && export AMENT_PREFIX_PATH=$VIRTUAL_ENV && cd {} && \
-             colcon build --packages-select fdavar_msgs fdavar --event-handlers console_direct-",
+             colcon build --packages-select fdavar_msgs fdavar --event-handlers console_direct- \
+             --cargo-args --release",
             venv.display(),
             ws.display()
         ))

@@ -189,7 +189,7 @@ impl ResultsWriter {
     /// Creates (or replaces) the MCAP file `path`, zstd-compressed.
     ///
     /// # Errors
-    /// [`BagError::AlreadyExists`] when `path` is a directory; I/O errors.
+    /// [`BagError::Io`] when `path` is a directory or the file cannot be created.
     pub fn create(path: impl AsRef<Path>) -> Result<ResultsWriter, BagError> {
         Ok(ResultsWriter {
             bag: BagWriter::create_file(path, &WriterOptions::default())?,

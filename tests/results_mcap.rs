@@ -345,3 +345,45 @@ fn every_row_is_a_message_by_default() {
         ]
     );
 }
+
+/// Usage errors of the results flags exit 2 before any work: `--params` or `--mcap-every` without
+/// `--mcap`, a directory as `--mcap`, and DAVAR settings the node's single pass cannot run.
+#[test]
+fn results_flags_misused_exit_2() {
+    let bag = root().join("bags/seed_2016");
+    let bag_s = bag.to_str().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r.mcap");
+    let params = root().join("launch_params/seed_2016.yaml");
+    for args in [
+        vec!["diagnose", bag_s, "--params", params.to_str().unwrap()],
+        vec!["fit", bag_s, "--model", "N", "--mcap-every", "1"],
+        vec!["diagnose", bag_s, "--mcap", dir.path().to_str().unwrap()],
+        vec![
+            "diagnose",
+            bag_s,
+            "--mcap",
+            out.to_str().unwrap(),
+            "--mcap-every",
+            "0",
+        ],
+        // seed_2016.yaml asks for sigma_ref.mode record (the whole record's variance).
+        vec![
+            "diagnose",
+            bag_s,
+            "--mcap",
+            out.to_str().unwrap(),
+            "--params",
+            params.to_str().unwrap(),
+        ],
+    ] {
+        let o = fdavar(&args);
+        assert_eq!(
+            o.status.code(),
+            Some(2),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    assert!(!out.exists(), "a refused run wrote {}", out.display());
+}

@@ -133,15 +133,19 @@ impl BagWriter {
     /// ([`crate::results::ResultsWriter`]).
     ///
     /// # Errors
-    /// [`BagError::AlreadyExists`] when `path` is a directory; [`BagError::Io`] creating the file.
+    /// [`BagError::Io`] when `path` is a directory or the file cannot be created.
     pub fn create_file(
         path: impl AsRef<Path>,
         options: &WriterOptions,
     ) -> Result<BagWriter, BagError> {
         let path = path.as_ref();
         let (Some(name), false) = (path.file_name(), path.is_dir()) else {
-            return Err(BagError::AlreadyExists {
+            return Err(BagError::Io {
                 path: path.to_path_buf(),
+                source: std::io::Error::new(
+                    std::io::ErrorKind::IsADirectory,
+                    "a directory, not a file name",
+                ),
             });
         };
         let dir = match path.parent() {

@@ -4,14 +4,14 @@
 //! Also home of what `fdavar diagnose` shares: feeding the bag into a [`fdavar::analysis::Analysis`]
 //! (the node's analysis path), the text table and the figures.
 
-use crate::Outcome;
+use crate::{Outcome, UsageError};
 use anyhow::Context;
 use fdavar::analysis::{Analysis, AnalysisConfig};
 use fdavar::bag::{BagMessage, BagReader};
 use fdavar::model::output::{allan_figure, AxisReport, Report};
 use fdavar::model::spec::axis_models;
 use fdavar::model::{FittedModel, ModelSpec};
-use fdavar::pipeline::{AxisRow, DavarConfig};
+use fdavar::pipeline::{AxisRow, DavarConfig, SigmaRefMode};
 use fdavar::report::units::{Coefficient, Sensor};
 use fdavar::results::{axis_state, ResultsWriter, WholeRun};
 use fdavar::signal::Axis;
@@ -180,11 +180,25 @@ impl ResultsOut {
         let Some(path) = &common.mcap else {
             return Ok(None);
         };
+        if path.is_dir() {
+            return Err(UsageError(format!(
+                "--mcap {}: a directory; give a file name, e.g. results.mcap",
+                path.display()
+            ))
+            .into());
+        }
         let davar = match &common.params {
             Some(p) => fdavar::params::load(p)
                 .with_context(|| format!("invalid parameters in {}", p.display()))?,
             None => DavarConfig::default(),
         };
+        if davar.sigma_ref == SigmaRefMode::Record {
+            // The whole record's variance needs a first pass; the rows are the node's single pass.
+            return Err(UsageError(
+                "--params: sigma_ref.mode 'record' needs two passes over the recording; the --mcap rows are the node's (one pass): use running, baseline or value".into(),
+            )
+            .into());
+        }
         let writer =
             ResultsWriter::create(path).with_context(|| format!("cannot create {}", path.display()))?;
         Ok(Some(ResultsOut {

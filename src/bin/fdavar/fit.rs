@@ -2,7 +2,7 @@
 //! model to each axis's whole-record Allan variance and say where it fails.
 //!
 //! Also home of what `fdavar diagnose` shares: feeding the bag into a [`fdavar::analysis::Analysis`]
-//! (the node's analysis path), the text table and the figures.
+//! (the node's analysis path), the text table, the figures and the results MCAP (`--mcap`).
 
 use crate::{Outcome, UsageError};
 use anyhow::Context;

@@ -44,6 +44,7 @@ pub mod msgs;
 pub mod params;
 pub mod pipeline;
 pub mod report;
+pub mod results;
 pub mod signal;
 pub mod sim;
 

@@ -211,6 +211,15 @@ impl QosProfile {
             avoid_ros_namespace_conventions: false,
         }
     }
+
+    /// The profile of a status publisher (`rclcpp` default: reliable, keep last 10).
+    pub(crate) fn reliable() -> QosProfile {
+        QosProfile {
+            depth: 10,
+            reliability: "reliable",
+            ..QosProfile::sensor_data()
+        }
+    }
 }
 
 #[cfg(test)]

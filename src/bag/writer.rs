@@ -78,6 +78,8 @@ struct Topic {
 pub struct BagWriter {
     dir: PathBuf,
     file_name: String,
+    /// False for a bare `.mcap` file ([`BagWriter::create_file`]): no `metadata.yaml` beside it.
+    metadata_yaml: bool,
     mcap: mcap::Writer<BufWriter<File>>,
     schemas: HashMap<&'static str, u16>,
     topics: Vec<Topic>,
@@ -122,6 +124,43 @@ impl BagWriter {
         std::fs::create_dir_all(&dir).map_err(BagError::io(&dir))?;
         let stem = dir.file_name().map(|n| n.to_string_lossy().into_owned());
         let file_name = format!("{}_0.mcap", stem.unwrap_or_else(|| "bag".into()));
+        Self::open_mcap(dir, file_name, true, options)
+    }
+
+    /// Creates (or replaces) the bare MCAP file `path`, without a bag directory or
+    /// `metadata.yaml` (rosbag2, Foxglove and PlotJuggler open a bare `.mcap`); the `rosbag2`
+    /// metadata record is still written inside. Used for results files
+    /// ([`crate::results::ResultsWriter`]).
+    ///
+    /// # Errors
+    /// [`BagError::Io`] when `path` is a directory or the file cannot be created.
+    pub fn create_file(
+        path: impl AsRef<Path>,
+        options: &WriterOptions,
+    ) -> Result<BagWriter, BagError> {
+        let path = path.as_ref();
+        let (Some(name), false) = (path.file_name(), path.is_dir()) else {
+            return Err(BagError::Io {
+                path: path.to_path_buf(),
+                source: std::io::Error::new(
+                    std::io::ErrorKind::IsADirectory,
+                    "a directory, not a file name",
+                ),
+            });
+        };
+        let dir = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        Self::open_mcap(dir, name.to_string_lossy().into_owned(), false, options)
+    }
+
+    fn open_mcap(
+        dir: PathBuf,
+        file_name: String,
+        metadata_yaml: bool,
+        options: &WriterOptions,
+    ) -> Result<BagWriter, BagError> {
         let path = dir.join(&file_name);
         let file = File::create(&path).map_err(BagError::io(&path))?;
         let compression = match options.compression {
@@ -138,6 +177,7 @@ impl BagWriter {
         Ok(BagWriter {
             dir,
             file_name,
+            metadata_yaml,
             mcap,
             schemas: HashMap::new(),
             topics: Vec::new(),
@@ -184,7 +224,22 @@ impl BagWriter {
         })
     }
 
-    /// Completes the MCAP file (summary, footer) and writes `metadata.yaml`.
+    /// Writes one message of any mirrored type (e.g. `fdavar_msgs/msg/AxisState`) on `topic` at
+    /// `log_time_ns`; the topic's channel and the type's schema are added on first use.
+    ///
+    /// # Errors
+    /// As [`BagWriter::write_imu`].
+    pub fn write_message<M: RosMessage>(
+        &mut self,
+        topic: &str,
+        log_time_ns: i64,
+        msg: &M,
+    ) -> Result<(), BagError> {
+        self.guarded(|w| w.write(topic, log_time_ns, msg))
+    }
+
+    /// Completes the MCAP file (summary, footer) and writes `metadata.yaml` (not beside a bare
+    /// file from [`BagWriter::create_file`]).
     ///
     /// # Errors
     /// [`BagError::WriterClosed`] if already finished or failed; I/O errors.
@@ -209,6 +264,9 @@ impl BagWriter {
                 .write_metadata(&record)
                 .map_err(|e| mcap_error(&path, e))?;
             w.mcap.finish().map_err(|e| mcap_error(&path, e))?;
+            if !w.metadata_yaml {
+                return Ok(());
+            }
             let meta = w.dir.join(metadata::FILE_NAME);
             std::fs::write(&meta, yaml).map_err(BagError::io(&meta))
         })?;
@@ -293,8 +351,8 @@ impl BagWriter {
                 id
             }
         };
-        let qos = serde_yaml_ng::to_string(&vec![QosProfile::sensor_data()])
-            .map_err(|e| unwritable(topic, e))?;
+        let qos =
+            serde_yaml_ng::to_string(&vec![offered_qos(def)]).map_err(|e| unwritable(topic, e))?;
         let mut channel_meta = BTreeMap::from([("offered_qos_profiles".to_string(), qos)]);
         if !def.type_hash.is_empty() {
             channel_meta.insert("topic_type_hash".into(), def.type_hash.into());
@@ -335,7 +393,7 @@ impl BagWriter {
                         name: &t.name,
                         type_name: t.def.name,
                         serialization_format: "cdr",
-                        offered_qos_profiles: vec![QosProfile::sensor_data()],
+                        offered_qos_profiles: vec![offered_qos(t.def)],
                         type_description_hash: t.def.type_hash,
                     },
                     message_count: t.count,
@@ -357,6 +415,16 @@ impl BagWriter {
             custom_data: None,
             ros_distro: "jazzy",
         }
+    }
+}
+
+/// The QoS a publisher of `def` offers: sensor data for the sensor types, reliable for the rest
+/// (what `fdavar_node` offers on `~/<axis>/state`), so that `ros2 bag play` republishes alike.
+fn offered_qos(def: &MsgDef) -> QosProfile {
+    if def.package() == "sensor_msgs" {
+        QosProfile::sensor_data()
+    } else {
+        QosProfile::reliable()
     }
 }
 

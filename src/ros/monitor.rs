@@ -10,8 +10,10 @@
 
 use crate::msgs::builtin_interfaces::Time;
 use crate::msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue, Level};
-use crate::msgs::fdavar_msgs::{AxisState, Coefficient, Suggestion, TauInterval, TimeSpan};
+use crate::msgs::fdavar_msgs::AxisState;
 use crate::msgs::std_msgs::Header;
+/// The whole-run fields of `~/<axis>/state` (see [`RowEngine::diagnose`]).
+pub use crate::results::WholeRun;
 use crate::signal::{Axis, ImuSample, PeriodEstimator, StampCheck, StampClass, TemperatureSample};
 
 /// The analysis as the node drives it: samples in, per-axis rows and whole-run answers out.
@@ -39,41 +41,6 @@ pub trait RowEngine: Send {
     /// Why there is no answer yet (too few samples, a degenerate record).
     fn diagnose(&mut self, _axis: Axis) -> Result<WholeRun, String> {
         Err("this engine has no whole-run analysis".to_string())
-    }
-}
-
-/// The whole-run fields of `~/<axis>/state` (see [`RowEngine::diagnose`]).
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct WholeRun {
-    /// The model's effect ids.
-    pub model: Vec<String>,
-    /// Its fitted coefficients with 1σ.
-    pub coefficients: Vec<Coefficient>,
-    /// fit_error (docs/design.md §5).
-    pub fit_error: f64,
-    /// Maximal τ intervals where |z| > 3.
-    pub failing_tau: Vec<TauInterval>,
-    /// Maximal time spans where the model fails.
-    pub failing_spans: Vec<TimeSpan>,
-    /// Missing effects, best first.
-    pub suggestions: Vec<Suggestion>,
-    /// IMU messages the engine had received.
-    pub messages: u64,
-    /// Seconds of data covered.
-    pub until_s: f64,
-}
-
-impl WholeRun {
-    /// Writes these fields into a state message.
-    fn fill(&self, s: &mut AxisState) {
-        s.model.clone_from(&self.model);
-        s.coefficients.clone_from(&self.coefficients);
-        s.fit_error = self.fit_error;
-        s.failing_tau.clone_from(&self.failing_tau);
-        s.failing_spans.clone_from(&self.failing_spans);
-        s.suggestions.clone_from(&self.suggestions);
-        s.diagnosed_messages = self.messages;
-        s.diagnosed_until_s = self.until_s;
     }
 }
 
@@ -606,6 +573,7 @@ impl Monitor {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::msgs::fdavar_msgs::Suggestion;
 
     const MS: i64 = 1_000_000;
 

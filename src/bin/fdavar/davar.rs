@@ -61,7 +61,7 @@ pub struct Args {
     pub every: Option<f64>,
 }
 
-fn positive_seconds(s: &str) -> Result<f64, String> {
+pub fn positive_seconds(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
         _ => Err(format!("expected a positive number of seconds, got '{s}'")),

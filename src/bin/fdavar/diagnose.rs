@@ -1,11 +1,12 @@
-//! `fdavar diagnose BAG [--model SPEC] [--topic T] [--axis A]... [--json] [--out DIR]`: which
+//! `fdavar diagnose BAG [--model SPEC] [--topic T] [--axis A]... [--json] [--out DIR] [--mcap OUT]`: which
 //! physical effect the noise model misses, per axis, best first.
 
-use crate::fit::{load, outcome, print_json, title, write_fit, Common};
+use crate::fit::{load, outcome, print_json, title, write_fit, Common, ResultsOut};
 use crate::Outcome;
 use anyhow::Context;
 use fdavar::model::output::{allan_figure, comparison_figure, AxisReport, Report};
 use fdavar::model::ModelSpec;
+use fdavar::results::WholeRun;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -30,13 +31,19 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
-    let mut analysis = load(&args.bag, &args.model, args.common.topic.as_deref(), args.common.first)?;
+    let mut results = ResultsOut::create(&args.common)?;
+    let mut analysis = load(&args.bag, &args.model, args.common.topic.as_deref(), args.common.first, results.as_mut())?;
     let mut diagnoses = Vec::new();
     for axis in args.common.axes() {
         let d = analysis
             .diagnose(axis)
             .with_context(|| format!("cannot diagnose {axis}"))?;
         diagnoses.push(d);
+    }
+    if let Some(results) = results {
+        let (messages, until_s) = (analysis.messages(), analysis.duration_s().unwrap_or(0.0));
+        let answers = diagnoses.iter().map(|d| (d.fit.axis, WholeRun::from_diagnosis(d, messages, until_s)));
+        results.finish(answers)?;
     }
     if args.common.json {
         let report = Report {

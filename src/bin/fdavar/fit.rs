@@ -2,16 +2,18 @@
 //! model to each axis's whole-record Allan variance and say where it fails.
 //!
 //! Also home of what `fdavar diagnose` shares: feeding the bag into a [`fdavar::analysis::Analysis`]
-//! (the node's analysis path), the text table and the figures.
+//! (the node's analysis path), the text table, the figures and the results MCAP (`--mcap`).
 
-use crate::Outcome;
+use crate::{Outcome, UsageError};
 use anyhow::Context;
 use fdavar::analysis::{Analysis, AnalysisConfig};
 use fdavar::bag::{BagMessage, BagReader};
 use fdavar::model::output::{allan_figure, AxisReport, Report};
 use fdavar::model::spec::axis_models;
 use fdavar::model::{FittedModel, ModelSpec};
+use fdavar::pipeline::{AxisRow, DavarConfig, SigmaRefMode};
 use fdavar::report::units::{Coefficient, Sensor};
+use fdavar::results::{axis_state, ResultsWriter, WholeRun};
 use fdavar::signal::Axis;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -61,6 +63,20 @@ pub struct Common {
     /// finding: a warning on stderr and exit 0.
     #[arg(long)]
     pub strict: bool,
+    /// Also write the results as an MCAP file (replaced if it exists) with the node's topics: per
+    /// axis `/fdavar/<axis>/state` (fdavar_msgs/msg/AxisState), every F-DAVAR row as it comes,
+    /// then one message with the whole-run answer; opens in Foxglove and PlotJuggler
+    /// (docs/report.md, "Results MCAP").
+    #[arg(long, value_name = "OUT")]
+    pub mcap: Option<PathBuf>,
+    /// F-DAVAR settings of the rows in --mcap: a parameter file like launch_params/default.yaml
+    /// (default: the node's defaults, `fdavar_node --help`).
+    #[arg(long, value_name = "FILE", requires = "mcap")]
+    pub params: Option<PathBuf>,
+    /// Rows in --mcap: at most one per axis per SECONDS of analysis time (the first of each
+    /// slot, as `fdavar davar --every`); default: every row, one per sample, about 0.5 kB each.
+    #[arg(long, value_name = "SECONDS", requires = "mcap", value_parser = crate::davar::positive_seconds)]
+    pub mcap_every: Option<f64>,
 }
 
 impl Common {
@@ -75,7 +91,8 @@ impl Common {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
-    let mut analysis = load(&args.bag, &args.model, args.common.topic.as_deref(), args.common.first)?;
+    let mut results = ResultsOut::create(&args.common)?;
+    let mut analysis = load(&args.bag, &args.model, args.common.topic.as_deref(), args.common.first, results.as_mut())?;
     let mut fits = Vec::new();
     for axis in args.common.axes() {
         let f = analysis
@@ -93,6 +110,10 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         for f in &fits {
             write_fit(&mut out, f).context("writing output")?;
         }
+    }
+    if let Some(results) = results {
+        let (messages, until_s) = (analysis.messages(), analysis.duration_s().unwrap_or(0.0));
+        results.finish(fits.iter().map(|f| (f.axis, WholeRun::from_fit(f, messages, until_s))))?;
     }
     if let Some(dir) = &args.common.out {
         for f in &fits {
@@ -142,16 +163,106 @@ pub fn title(bag: &Path) -> String {
     )
 }
 
+/// `--mcap OUT`: the results file being written, the rows' settings and the axes it carries.
+pub struct ResultsOut {
+    writer: ResultsWriter,
+    path: PathBuf,
+    davar: DavarConfig,
+    axes: Vec<Axis>,
+    every: Option<f64>,
+    /// The `--mcap-every` slot of the latest row written, per axis.
+    last_slot: [Option<i64>; 6],
+}
+
+impl ResultsOut {
+    /// The results file `--mcap` asks for (`--params`: the rows' settings), if any.
+    pub fn create(common: &Common) -> anyhow::Result<Option<ResultsOut>> {
+        let Some(path) = &common.mcap else {
+            return Ok(None);
+        };
+        if path.is_dir() {
+            return Err(UsageError(format!(
+                "--mcap {}: a directory; give a file name, e.g. results.mcap",
+                path.display()
+            ))
+            .into());
+        }
+        let davar = match &common.params {
+            Some(p) => fdavar::params::load(p)
+                .with_context(|| format!("invalid parameters in {}", p.display()))?,
+            None => DavarConfig::default(),
+        };
+        if davar.sigma_ref == SigmaRefMode::Record {
+            // The whole record's variance needs a first pass; the rows are the node's single pass.
+            return Err(UsageError(
+                "--params: sigma_ref.mode 'record' needs two passes over the recording; the --mcap rows are the node's (one pass): use running, baseline or value".into(),
+            )
+            .into());
+        }
+        let writer =
+            ResultsWriter::create(path).with_context(|| format!("cannot create {}", path.display()))?;
+        Ok(Some(ResultsOut {
+            writer,
+            path: path.clone(),
+            davar,
+            axes: common.axes(),
+            every: common.mcap_every,
+            last_slot: [None; 6],
+        }))
+    }
+
+    /// Writes the rows of the axes asked for, with the counters so far (as the node publishes).
+    fn write_rows(&mut self, analysis: &Analysis, rows: &[AxisRow]) -> anyhow::Result<()> {
+        let tau0 = analysis.row_tau0().unwrap_or(f64::NAN);
+        for row in rows.iter().filter(|r| self.axes.contains(&r.axis)) {
+            if let Some(every) = self.every {
+                let slot = Some((row.time_s / every).floor() as i64);
+                if std::mem::replace(&mut self.last_slot[row.axis.index()], slot) == slot {
+                    continue;
+                }
+            }
+            let mut state = axis_state(row, tau0);
+            state.samples = analysis.messages();
+            state.gaps = analysis.irregularities().gaps;
+            self.writer
+                .write_row(state)
+                .with_context(|| format!("cannot write {}", self.path.display()))?;
+        }
+        Ok(())
+    }
+
+    /// Writes the whole-run answer of each axis and completes the file.
+    pub fn finish(mut self, answers: impl Iterator<Item = (Axis, WholeRun)>) -> anyhow::Result<()> {
+        let context = || format!("cannot write {}", self.path.display());
+        for (axis, whole) in answers {
+            self.writer.write_whole_run(axis, &whole).with_context(context)?;
+        }
+        self.writer.finish().with_context(context)
+    }
+}
+
 /// Feeds the IMU topic (and the temperature topic, if the bag has one) into an analysis with the
 /// `--model` values, in recorded order (nothing re-sorted: as `fdavar play` would deliver them to
-/// the node), up to `--first` IMU messages.
-pub fn load(path: &Path, model: &[String], topic: Option<&str>, first: Option<u64>) -> anyhow::Result<Analysis> {
+/// the node), up to `--first` IMU messages. With `results`, the analysis also makes F-DAVAR rows
+/// on the node's settings and with the node's τ0 rule, and they are written as they come.
+pub fn load(
+    path: &Path,
+    model: &[String],
+    topic: Option<&str>,
+    first: Option<u64>,
+    mut results: Option<&mut ResultsOut>,
+) -> anyhow::Result<Analysis> {
     let models = axis_models(model, ModelSpec::DEFAULT).context("invalid --model")?;
     let bag = BagReader::open(path).with_context(|| format!("cannot open {}", path.display()))?;
     let imu_topic = bag.imu_topic(topic)?.name.clone();
     let temp_topic = bag.temperature_topic(None)?.map(|t| t.name.clone());
     let mut config = AnalysisConfig::whole_run(&models[0]);
     config.models = models;
+    if let Some(r) = &results {
+        // As the node (src/ros/engine.rs): the whole run on the grid of the configured τ0.
+        config.tau0 = r.davar.tau0;
+        config.davar = Some(r.davar.clone());
+    }
     let mut analysis = Analysis::new(config).context("cannot start the analysis")?;
     for msg in bag.messages(&imu_topic, temp_topic.as_deref())? {
         match msg.with_context(|| format!("reading {}", path.display()))? {
@@ -159,7 +270,10 @@ pub fn load(path: &Path, model: &[String], topic: Option<&str>, first: Option<u6
                 if first.is_some_and(|n| analysis.messages() >= n) {
                     break;
                 }
-                analysis.push(&sample);
+                let rows = analysis.push(&sample).to_vec();
+                if let Some(r) = results.as_deref_mut() {
+                    r.write_rows(&analysis, &rows)?;
+                }
             }
             BagMessage::Temperature { sample, .. } => analysis.push_temperature(&sample),
         }

@@ -190,7 +190,7 @@ pub fn record_variances_in_two_passes<E>(
     pass(&mut |s| {
         for a in Axis::ALL {
             let v = s.value(a);
-            if v.is_finite() {
+            if crate::signal::is_usable(v) {
                 sum[a.index()] += v;
                 n[a.index()] += 1;
             }
@@ -201,7 +201,7 @@ pub fn record_variances_in_two_passes<E>(
     pass(&mut |s| {
         for a in Axis::ALL {
             let v = s.value(a);
-            if v.is_finite() {
+            if crate::signal::is_usable(v) {
                 let d = v - mean[a.index()];
                 m2[a.index()] += d * d;
             }

@@ -532,6 +532,74 @@ mod tests {
         .is_ok());
     }
 
+    /// Issue 13: the node validates `-p`, parameter files and SetParameters with the DAVAR table's
+    /// bounds: values that panicked the spin thread (capacity overflow), aborted (allocation) or
+    /// spun forever (τ0 1e-300) are refused with the reason, and the values in force stay.
+    #[test]
+    fn davar_values_beyond_the_bounds_are_refused_live_and_at_startup() {
+        let (values, _) = davar_startup(&[], &[]).unwrap();
+        let cases = [
+            (
+                "window.max",
+                ParameterValue::Integer(i64::MAX),
+                "[3, 50001]",
+            ),
+            (
+                "window.max",
+                ParameterValue::Integer(1_000_000_000),
+                "[3, 50001]",
+            ),
+            (
+                "window.max",
+                ParameterValue::Integer(10_000_000),
+                "[3, 50001]",
+            ),
+            (
+                "window.length",
+                ParameterValue::Integer(1_000_000_000),
+                "[3, 50001]",
+            ),
+            ("tau0", ParameterValue::Double(1e-300), "[1e-5, 86400]"),
+        ];
+        for (name, value, bound) in &cases {
+            let e = davar_change(&values, name, value).unwrap_err();
+            assert!(
+                e.contains(&format!("parameter '{name}'")) && e.contains(bound),
+                "{e}"
+            );
+            let e = davar_startup(&[], &[(name.to_string(), value.clone())]).unwrap_err();
+            let text = e.to_string();
+            assert!(text.contains(name) && text.contains(bound), "{text}");
+        }
+        // `taus: all` is refused against the window in force, and the window against the grid.
+        let (fixed, _) = davar_change(
+            &values,
+            "window.policy",
+            &ParameterValue::String("fixed".into()),
+        )
+        .unwrap();
+        let (fixed, _) =
+            davar_change(&fixed, "window.length", &ParameterValue::Integer(50_001)).unwrap();
+        let e = davar_change(&fixed, "taus", &ParameterValue::String("all".into())).unwrap_err();
+        assert!(
+            e.contains("parameter 'taus'") && e.contains("prefix cells"),
+            "{e}"
+        );
+        // A parameter file holding them stops the node at startup with the reason.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.yaml");
+        std::fs::write(
+            &path,
+            "fdavar:\n  ros__parameters:\n    window: {policy: fixed, length: 60001}\n",
+        )
+        .unwrap();
+        let e = davar_startup(&[path], &[]).unwrap_err().to_string();
+        assert!(
+            e.contains("window.length") && e.contains("[3, 50001]"),
+            "{e}"
+        );
+    }
+
     #[test]
     fn the_shipped_parameter_files_are_valid_for_the_node() {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("launch_params");

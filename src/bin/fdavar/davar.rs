@@ -172,12 +172,8 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     events.append(&mut out.events);
     printer.end(&pipeline, &events).context("writing output")?;
     let counts = pipeline.irregularities();
-    let irregular = counts.gaps + counts.duplicates + counts.backwards + counts.non_finite;
-    if irregular > 0 {
-        eprintln!(
-            "fdavar: warning: {} gaps, {} duplicate and {} backwards stamps, {} non-finite values (left out and counted)",
-            counts.gaps, counts.duplicates, counts.backwards, counts.non_finite
-        );
+    if counts.total() > 0 {
+        eprintln!("fdavar: warning: {}", counts.describe());
         return Ok(Outcome::Warnings);
     }
     Ok(Outcome::Ok)
@@ -315,7 +311,13 @@ impl<W: Write> Printer<W> {
 
 fn validate(args: &Args) -> anyhow::Result<RunConfig> {
     let mut config = match &args.params {
+        // A value the parameter table refuses is a usage error (exit 2, issue 13); an unreadable
+        // file is not.
         Some(path) => fdavar::params::load(path)
+            .map_err(|e| match e {
+                fdavar::params::ParamsError::Io { .. } => anyhow::Error::new(e),
+                other => anyhow::Error::new(crate::UsageError(other.to_string())),
+            })
             .with_context(|| format!("invalid parameters in {}", path.display()))?,
         None => DavarConfig::default(),
     };
@@ -338,6 +340,11 @@ fn validate(args: &Args) -> anyhow::Result<RunConfig> {
         if !(rate > 0.0 && rate.is_finite()) {
             bail!("--rate must be a positive number of Hz, got {rate}");
         }
+        // The same range as the tau0 parameter.
+        fdavar::params::spec("tau0")
+            .expect("tau0 is a parameter")
+            .check(&fdavar::params::ParamValue::Float(1.0 / rate))
+            .map_err(|e| crate::UsageError(format!("--rate {rate}: {e}")))?;
         config.tau0 = Some(1.0 / rate);
     }
     let tau0 = config.tau0.context(

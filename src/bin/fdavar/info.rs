@@ -133,7 +133,7 @@ fn imu_report(bag: &BagReader, topic: &TopicInfo) -> anyhow::Result<ImuReport> {
             hi = hi.max(sample.stamp_ns);
             check.check(sample.stamp_ns);
             for v in sample.values() {
-                if !v.is_finite() {
+                if !fdavar::signal::is_usable(v) {
                     check.count_non_finite();
                 }
             }

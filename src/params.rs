@@ -229,6 +229,35 @@ pub const MAX_PREFIX_CELLS: usize = 1 << 21;
 /// analysis spin). Above one day it is not an IMU rate either.
 pub const TAU0_RANGE_S: (f64, f64) = (1e-5, 86_400.0);
 
+/// How far a given `tau0` may lie from the period the stamps show (their median interval): a
+/// factor of 10 either way.
+///
+/// Why: τ0 below the stamps' period makes every interval a gap of period/τ0 missing samples (10⁻⁵ s
+/// on 30 ms stamps took 12 s for 3 600 samples instead of 0.1 s); above it, gaps go unseen. Where
+/// the period is known before the analysis starts (`fdavar davar` on a bag, a live change of a
+/// running node) a τ0 outside this factor is refused; otherwise [`TAU0_RANGE_S`] bounds the cost.
+pub const TAU0_PERIOD_FACTOR: f64 = 10.0;
+
+/// Checks a given τ0 against the period measured from the stamps ([`TAU0_PERIOD_FACTOR`]).
+///
+/// # Errors
+/// [`ParamsError::Invalid`] naming `tau0`, with both periods.
+pub fn check_tau0_against_period(tau0: f64, measured_s: f64) -> Result<(), ParamsError> {
+    let f = TAU0_PERIOD_FACTOR;
+    if !(measured_s > 0.0) || (measured_s / f..=measured_s * f).contains(&tau0) {
+        return Ok(());
+    }
+    Err(ParamsError::Invalid {
+        name: "tau0".to_string(),
+        value: ParamValue::Float(tau0).to_string(),
+        reason: format!(
+            "the stamps' median interval is {} s; tau0 must be within 1/{f}..{f} times it (or 0 \
+             to use it)",
+            (measured_s * 1e9).round() / 1e9
+        ),
+    })
+}
+
 /// Checks the window and τ grid against [`MAX_PREFIX_CELLS`]; `Err` names `taus` and says why.
 ///
 /// # Errors
@@ -776,6 +805,17 @@ mod tests {
         for tau0 in ["1.0e-5", "86400.0", "0.0"] {
             parse(&format!("    tau0: {tau0}\n")).unwrap();
         }
+        // Against the stamps' own period: a factor of 10 either way.
+        check_tau0_against_period(0.3, 0.03).unwrap();
+        check_tau0_against_period(0.003, 0.03).unwrap();
+        let e = check_tau0_against_period(1e-5, 0.03)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("parameter 'tau0' = 1e-5") && e.contains("0.03 s"),
+            "{e}"
+        );
+        assert!(check_tau0_against_period(0.31, 0.03).is_err());
     }
 
     #[test]

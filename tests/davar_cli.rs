@@ -338,6 +338,19 @@ fn values_that_crashed_or_hung_are_refused_with_exit_2() {
             .unwrap();
         assert_eq!(out.status.code(), Some(0), "{body}: {}", String::from_utf8_lossy(&out.stderr));
     }
+    // On a bag a given tau0 must fit the stamps (30 ms here) within a factor of 10: 1e-5 s is in
+    // the range but made every interval a gap of 3000 samples (12 s for 3600 samples).
+    let bag = concat!(env!("CARGO_MANIFEST_DIR"), "/bags/seed_2016");
+    let mut params = tempfile::NamedTempFile::new().unwrap();
+    writeln!(params, "fdavar:\n  ros__parameters:\n    tau0: 1.0e-5").unwrap();
+    let out = fdavar()
+        .args(["davar", bag, "--params", params.path().to_str().unwrap()])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("parameter 'tau0' = 1e-5") && stderr.contains("0.03"), "{stderr}");
     // --rate gives tau0 too: the same range.
     let out = fdavar()
         .args(["davar", data.path().to_str().unwrap(), "--rate", "1e300"])

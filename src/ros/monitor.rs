@@ -324,6 +324,12 @@ impl Monitor {
         }
     }
 
+    /// The stamps' median interval over the first 50, s, once seen (what a live `tau0` is
+    /// checked against).
+    pub fn sample_period_s(&self) -> Option<f64> {
+        self.period.period()
+    }
+
     /// The counters so far.
     pub fn counters(&self) -> Counters {
         self.counters

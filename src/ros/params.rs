@@ -425,6 +425,25 @@ pub fn davar_change(
     Ok((next, config))
 }
 
+/// [`davar_change`] on a running node: a given `tau0` must also lie within
+/// [`crate::params::TAU0_PERIOD_FACTOR`] of the period the stamps show (`measured_period_s`, once
+/// known).
+///
+/// # Errors
+/// As [`davar_change`], and the `tau0` refusal of [`crate::params::check_tau0_against_period`].
+pub fn davar_change_live(
+    current: &BTreeMap<String, DavarValue>,
+    name: &str,
+    value: &ParameterValue,
+    measured_period_s: Option<f64>,
+) -> Result<(BTreeMap<String, DavarValue>, DavarConfig), String> {
+    let (next, config) = davar_change(current, name, value)?;
+    if let (Some(tau0), Some(measured)) = (config.tau0, measured_period_s) {
+        crate::params::check_tau0_against_period(tau0, measured).map_err(|e| e.to_string())?;
+    }
+    Ok((next, config))
+}
+
 /// The DAVAR parameter values at startup: defaults, then the files' DAVAR keys, then `-p`.
 ///
 /// # Errors
@@ -585,6 +604,15 @@ mod tests {
             e.contains("parameter 'taus'") && e.contains("prefix cells"),
             "{e}"
         );
+        // Live, a τ0 is also checked against the period the stamps show.
+        let e = davar_change_live(&values, "tau0", &ParameterValue::Double(1e-5), Some(0.03))
+            .unwrap_err();
+        assert!(
+            e.contains("parameter 'tau0' = 1e-5") && e.contains("0.03 s"),
+            "{e}"
+        );
+        davar_change_live(&values, "tau0", &ParameterValue::Double(0.03), Some(0.03)).unwrap();
+        davar_change_live(&values, "tau0", &ParameterValue::Double(1e-5), None).unwrap();
         // A parameter file holding them stops the node at startup with the reason.
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("p.yaml");

@@ -329,6 +329,27 @@ fn validate(args: &Args) -> anyhow::Result<RunConfig> {
         let bag = fdavar::bag::BagReader::open(&path)
             .with_context(|| format!("cannot open bag {}", path.display()))?;
         let topic = bag.imu_topic(args.topic.as_deref())?.name.clone();
+        if let Some(tau0) = config.tau0 {
+            // A given tau0 must fit the stamps (issue 13): their median interval over the first
+            // PERIOD_SETTLE intervals, as the pipeline would learn it.
+            let mut stamps = Vec::new();
+            for message in bag.messages(&topic, None)? {
+                if let fdavar::bag::BagMessage::Imu { sample, .. } = message? {
+                    stamps.push(sample.stamp_ns);
+                    if stamps.len() > fdavar::pipeline::PERIOD_SETTLE {
+                        break;
+                    }
+                }
+            }
+            if let Some(measured) = fdavar::signal::nominal_period(&stamps) {
+                fdavar::params::check_tau0_against_period(tau0, measured)
+                    .map_err(|e| crate::UsageError(e.to_string()))
+                    .with_context(|| match &args.params {
+                        Some(p) => format!("invalid parameters in {}", p.display()),
+                        None => "invalid parameters".to_string(),
+                    })?;
+            }
+        }
         let axes = args.axis.map_or_else(|| Axis::ALL.to_vec(), |a| vec![a]);
         return Ok(RunConfig {
             config,

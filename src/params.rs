@@ -244,7 +244,9 @@ pub const TAU0_PERIOD_FACTOR: f64 = 10.0;
 /// [`ParamsError::Invalid`] naming `tau0`, with both periods.
 pub fn check_tau0_against_period(tau0: f64, measured_s: f64) -> Result<(), ParamsError> {
     let f = TAU0_PERIOD_FACTOR;
-    if !(measured_s > 0.0) || (measured_s / f..=measured_s * f).contains(&tau0) {
+    // No usable measurement (none, or not a positive number): nothing to check against.
+    let unknown = !measured_s.is_finite() || measured_s <= 0.0;
+    if unknown || (measured_s / f..=measured_s * f).contains(&tau0) {
         return Ok(());
     }
     Err(ParamsError::Invalid {

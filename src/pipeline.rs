@@ -1,7 +1,8 @@
 //! The one path from IMU samples to DAVAR rows, shared by the offline CLI and the live node.
 //!
 //! `ImuSample` → [`Intake`] (τ0, stamp checks: gaps become missing-sample markers, duplicates and
-//! stamps going backwards are dropped and counted, NaN/∞ values counted; the same intake feeds the
+//! stamps going backwards are dropped and counted — a clock that went back for good is
+//! re-anchored —, NaN/∞ values and values beyond 10⁶ counted; the same intake feeds the
 //! whole-run analysis of [`crate::analysis`]) → one [`DavarEngine`] and one [`ChangeDetector`] per
 //! axis (a non-finite value is a missing sample of its axis) → rows tagged with axis, time and
 //! stamp, and change events.

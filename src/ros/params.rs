@@ -236,6 +236,12 @@ pub enum ParamError {
         /// The validator's reason.
         reason: String,
     },
+    /// A DAVAR value the DAVAR table refused; the reason names the parameter and its value.
+    #[error("{reason}")]
+    Davar {
+        /// The reason, e.g. `parameter 'window.max' = 1000000000: must be in [3, 50001]`.
+        reason: String,
+    },
     /// A parameter file could not be read.
     #[error("parameter file {path}: {reason}")]
     File {
@@ -456,10 +462,7 @@ pub fn davar_startup(
         .iter()
         .map(|p| (p.name.to_string(), p.default_value()))
         .collect();
-    let invalid = |name: &str, reason: String| ParamError::Invalid {
-        name: name.to_string(),
-        reason,
-    };
+    let invalid = |reason: String| ParamError::Davar { reason };
     for file in files {
         let text = std::fs::read_to_string(file).map_err(|e| ParamError::File {
             path: file.display().to_string(),
@@ -477,21 +480,21 @@ pub fn davar_startup(
         };
         for (name, value) in from_file {
             if let Some(spec) = crate::params::spec(&name) {
-                let value = spec
-                    .check(&value)
-                    .map_err(|e| invalid(&name, e.to_string()))?;
+                let value = spec.check(&value).map_err(|e| ParamError::Davar {
+                    reason: e.to_string(),
+                })?;
                 values.insert(name, value);
             }
         }
     }
     for (name, value) in overrides.iter().filter(|(n, _)| is_davar(n)) {
-        let (next, _) = davar_change(&values, name, value).map_err(|r| invalid(name, r))?;
+        let (next, _) =
+            davar_change(&values, name, value).map_err(|reason| ParamError::Davar { reason })?;
         values = next;
     }
-    let config = crate::params::config_from_params(&values)
-        .map_err(|e| invalid("(DAVAR settings)", e.to_string()))?;
+    let config = crate::params::config_from_params(&values).map_err(|e| invalid(e.to_string()))?;
     crate::pipeline::Pipeline::new(config.clone(), &crate::signal::Axis::ALL, None)
-        .map_err(|e| invalid("(DAVAR settings)", e.to_string()))?;
+        .map_err(|e| invalid(e.to_string()))?;
     Ok((values, config))
 }
 

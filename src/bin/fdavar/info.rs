@@ -216,6 +216,13 @@ fn print_text(out: &mut impl Write, r: &Report) -> std::io::Result<()> {
             "  gaps {}, duplicated stamps {}, backward stamps {}, non-finite values {}",
             n.gaps, n.duplicates, n.backwards, n.non_finite
         )?;
+        if n.reanchors > 0 {
+            writeln!(
+                out,
+                "  the clock went back {} times (50 backward stamps in a row: re-anchored)",
+                n.reanchors
+            )?;
+        }
     }
     Ok(())
 }

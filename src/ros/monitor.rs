@@ -192,7 +192,7 @@ pub struct Monitor {
     last_good_ns: Option<i64>,
     /// Backwards stamps in a row since the last good one (re-anchor at
     /// [`crate::signal::REANCHOR_AFTER`], as the engine's intake does).
-    backwards_run: u32,
+    backwards_run: (u32, Option<i64>),
     /// A re-anchor since the last publish (WARN).
     recent_reanchor: bool,
     first_stamp_ns: Option<i64>,
@@ -232,7 +232,7 @@ impl Monitor {
             period: PeriodEstimator::new(50),
             check: None,
             last_good_ns: None,
-            backwards_run: 0,
+            backwards_run: (0, None),
             recent_reanchor: false,
             first_stamp_ns: None,
             counters: Counters::default(),
@@ -417,8 +417,9 @@ impl Monitor {
                 return false;
             }
             if sample.stamp_ns < last {
-                self.backwards_run += 1;
-                if self.backwards_run < crate::signal::REANCHOR_AFTER {
+                self.backwards_run =
+                    crate::signal::backwards_run(self.backwards_run, sample.stamp_ns);
+                if self.backwards_run.0 < crate::signal::REANCHOR_AFTER {
                     self.counters.backwards += 1;
                     log.extend(self.note(BadInput::Backwards));
                     return false;
@@ -431,7 +432,7 @@ impl Monitor {
                 self.rate_window = None;
             }
         }
-        self.backwards_run = 0;
+        self.backwards_run = (0, None);
         let period = self.period.push(sample.stamp_ns);
         if let (None, Some(p)) = (&self.check, period) {
             let mut check = StampCheck::new(p);

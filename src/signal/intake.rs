@@ -244,6 +244,15 @@ mod tests {
         }
         let c = intake.irregularities();
         assert_eq!((c.backwards, c.reanchors, n), (400, 0, 11));
+        // Stale stamps that do not tick forward never re-anchor: 100 zero stamps in a stamped
+        // stream, or 100 copies of one old stamp, stay dropped.
+        for stale in [0, 500] {
+            for _ in 0..100 {
+                intake.push(&s(stale, 0.0), &mut |_| n += 1);
+            }
+        }
+        let c = intake.irregularities();
+        assert_eq!((c.backwards, c.reanchors, n), (600, 0, 11));
     }
 
     /// Issue 13: ten ±1e300 samples overflowed σ²_ref (their square is ∞) and left F NaN for the

@@ -133,9 +133,11 @@ pub struct TemperatureSample {
     pub celsius: f64,
 }
 
-/// Consecutive stamps earlier than the last accepted one after which the sensor clock is taken to
-/// have gone back for good (a restarted publisher, a reset sensor): the stamp that makes the count
-/// becomes the new anchor instead of being dropped.
+/// Consecutive stamps earlier than the last accepted one, each later than the one before it,
+/// after which the sensor clock is taken to have gone back for good (a restarted publisher, a
+/// reset sensor): the stamp that makes the count becomes the new anchor instead of being dropped.
+/// A run must tick forward: repeated stale stamps (e.g. zero stamps in a stamped stream) never
+/// re-anchor.
 ///
 /// Why 50: a single late or replayed message is one backwards stamp, and a burst of reordered
 /// messages is a few; fifty in a row without one good stamp between them is a clock that went
@@ -218,6 +220,15 @@ impl Irregularities {
     }
 }
 
+/// The run of backwards stamps after one more at `stamp_ns` ([`REANCHOR_AFTER`]): it grows when the
+/// stamp is later than the run's last one, and starts again at 1 otherwise.
+pub fn backwards_run(run: (u32, Option<i64>), stamp_ns: i64) -> (u32, Option<i64>) {
+    match run {
+        (n, Some(last)) if stamp_ns > last => (n + 1, Some(stamp_ns)),
+        _ => (1, Some(stamp_ns)),
+    }
+}
+
 /// Classifies each stamp against the previous accepted one.
 ///
 /// Why a separate type: the bag reader, the offline pipeline and the node all need the same rule
@@ -227,8 +238,9 @@ impl Irregularities {
 pub struct StampCheck {
     period_ns: f64,
     last_ns: Option<i64>,
-    /// Backwards stamps in a row since the last accepted one.
-    backwards_run: u32,
+    /// Backwards stamps in a row since the last accepted one, each later than the one before, and
+    /// the last of them.
+    backwards_run: (u32, Option<i64>),
     counts: Irregularities,
 }
 
@@ -238,7 +250,7 @@ impl StampCheck {
         StampCheck {
             period_ns: period_s * 1e9,
             last_ns: None,
-            backwards_run: 0,
+            backwards_run: (0, None),
             counts: Irregularities::default(),
         }
     }
@@ -269,10 +281,10 @@ impl StampCheck {
         match class {
             StampClass::Duplicate => self.counts.duplicates += 1,
             StampClass::Backwards => {
-                self.backwards_run += 1;
-                if self.backwards_run >= REANCHOR_AFTER {
+                self.backwards_run = backwards_run(self.backwards_run, stamp_ns);
+                if self.backwards_run.0 >= REANCHOR_AFTER {
                     self.counts.reanchors += 1;
-                    self.backwards_run = 0;
+                    self.backwards_run = (0, None);
                     self.last_ns = Some(stamp_ns);
                     return StampClass::Reanchored {
                         dropped: u64::from(REANCHOR_AFTER - 1),
@@ -282,11 +294,11 @@ impl StampCheck {
             }
             StampClass::Gap { .. } => {
                 self.counts.gaps += 1;
-                self.backwards_run = 0;
+                self.backwards_run = (0, None);
                 self.last_ns = Some(stamp_ns);
             }
             StampClass::Next => {
-                self.backwards_run = 0;
+                self.backwards_run = (0, None);
                 self.last_ns = Some(stamp_ns);
             }
             StampClass::Reanchored { .. } => unreachable!("not a comparison result"),

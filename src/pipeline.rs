@@ -599,6 +599,28 @@ mod tests {
         assert!(!a.events.is_empty());
     }
 
+    /// Issue 13: ten ±1e300 samples overflowed the running σ²_ref and left F NaN for the rest of
+    /// the run. The intake now places them as missing: every later row has a finite F.
+    #[test]
+    fn absurd_values_do_not_poison_sigma_ref_or_f() {
+        let mut p = Pipeline::new(config(), &[Axis::GyroX], None).unwrap();
+        let mut out = Output::default();
+        for k in 0..600i64 {
+            let mut s = sample(k, k * 10_000_000, 0.0);
+            if (100..110).contains(&k) {
+                s.gyro[0] = if k % 2 == 0 { 1e300 } else { -1e300 };
+            }
+            p.push(&s, &mut out);
+        }
+        let late: Vec<&AxisRow> = out.rows.iter().filter(|r| r.row.index > 200).collect();
+        assert!(!late.is_empty());
+        for r in late {
+            let (f, s2) = (r.row.f.unwrap(), r.row.sigma2_ref.unwrap());
+            assert!(f.is_finite() && s2.is_finite() && s2 < 1.0, "{f} {s2}");
+        }
+        assert_eq!(p.irregularities().non_finite, 10);
+    }
+
     #[test]
     fn record_mode_needs_the_record() {
         let cfg = DavarConfig {

@@ -82,6 +82,10 @@ impl fmt::Display for ParamValue {
         match self {
             ParamValue::Bool(b) => write!(f, "{b}"),
             ParamValue::Int(i) => write!(f, "{i}"),
+            // 1e-300 in full would be a line of 300 digits.
+            ParamValue::Float(x) if *x != 0.0 && !(1e-4..1e15).contains(&x.abs()) => {
+                write!(f, "{x:e}")
+            }
             ParamValue::Float(x) => write!(f, "{x}"),
             ParamValue::Str(s) => write!(f, "'{s}'"),
         }
@@ -175,6 +179,14 @@ fn int_at_least(v: &ParamValue, low: i64) -> Result<(), String> {
     }
 }
 
+fn int_in(v: &ParamValue, low: i64, high: i64) -> Result<(), String> {
+    match v {
+        ParamValue::Int(i) if (low..=high).contains(i) => Ok(()),
+        ParamValue::Int(_) => Err(format!("must be in [{low}, {high}]")),
+        _ => Err("must be an integer".into()),
+    }
+}
+
 fn positive(v: &ParamValue) -> Result<(), String> {
     match v {
         ParamValue::Float(x) if *x > 0.0 && x.is_finite() => Ok(()),
@@ -196,6 +208,75 @@ fn one_of(v: &ParamValue, choices: &[&str]) -> Result<(), String> {
     }
 }
 
+/// Longest window (`window.length`, `window.max`, and so `window.min`), samples.
+///
+/// Why this number: a window needs a ring of W + 8 samples per axis, and the default τ grid (10 per
+/// decade, cut at W/3) keeps 40 τ values at this W; 40 × 50 009 prefix cells fit
+/// [`MAX_PREFIX_CELLS`]. At 400 Hz it is a window of 125 s. docs/davar.md "Bounds".
+pub const MAX_WINDOW: i64 = 50_001;
+
+/// Most prefix cells per axis: (τ values of the grid with 3m ≤ λ2) × (λ2 + 8).
+///
+/// Each cell is 16 bytes (a sum and a count), so one axis holds at most 32 MiB of prefix sums and
+/// six axes 192 MiB; the per-sample cost is O(τ values), and this bound keeps it at most 834 τ
+/// values (K·(3K + 8) ≤ cells). docs/davar.md "Bounds".
+pub const MAX_PREFIX_CELLS: usize = 1 << 21;
+
+/// The range of a given `tau0`, seconds (0 = learn it from the stamps).
+///
+/// Below 10 µs (100 kHz) no IMU samples: a τ0 far below the stamps' own period turns every
+/// interval into a gap of period/τ0 missing samples (1e-300 s made that count overflow and the
+/// analysis spin). Above one day it is not an IMU rate either.
+pub const TAU0_RANGE_S: (f64, f64) = (1e-5, 86_400.0);
+
+/// How far a given `tau0` may lie from the period the stamps show (their median interval): a
+/// factor of 10 either way.
+///
+/// Why: τ0 below the stamps' period makes every interval a gap of period/τ0 missing samples (10⁻⁵ s
+/// on 30 ms stamps took 12 s for 3 600 samples instead of 0.1 s); above it, gaps go unseen. Where
+/// the period is known before the analysis starts (`fdavar davar` on a bag, a live change of a
+/// running node) a τ0 outside this factor is refused; otherwise [`TAU0_RANGE_S`] bounds the cost.
+pub const TAU0_PERIOD_FACTOR: f64 = 10.0;
+
+/// Checks a given τ0 against the period measured from the stamps ([`TAU0_PERIOD_FACTOR`]).
+///
+/// # Errors
+/// [`ParamsError::Invalid`] naming `tau0`, with both periods.
+pub fn check_tau0_against_period(tau0: f64, measured_s: f64) -> Result<(), ParamsError> {
+    let f = TAU0_PERIOD_FACTOR;
+    // No usable measurement (none, or not a positive number): nothing to check against.
+    let unknown = !measured_s.is_finite() || measured_s <= 0.0;
+    if unknown || (measured_s / f..=measured_s * f).contains(&tau0) {
+        return Ok(());
+    }
+    Err(ParamsError::Invalid {
+        name: "tau0".to_string(),
+        value: ParamValue::Float(tau0).to_string(),
+        reason: format!(
+            "the stamps' median interval is {} s; tau0 must be within 1/{f}..{f} times it (or 0 \
+             to use it)",
+            (measured_s * 1e9).round() / 1e9
+        ),
+    })
+}
+
+/// Checks the window and τ grid against [`MAX_PREFIX_CELLS`]; `Err` names `taus` and says why.
+///
+/// # Errors
+/// The reason, with the numbers.
+pub fn check_grid_size(taus: &TauGrid, max_window: usize) -> Result<(), String> {
+    let k = taus.factors(max_window / 3).len();
+    let cells = k.saturating_mul(max_window.saturating_add(8));
+    if cells > MAX_PREFIX_CELLS {
+        return Err(format!(
+            "{k} tau values x a ring of {} samples = {cells} prefix cells per axis, more than \
+             {MAX_PREFIX_CELLS} (32 MiB); use fewer tau values (e.g. taus: 10) or a shorter window",
+            max_window + 8
+        ));
+    }
+    Ok(())
+}
+
 /// Window policies (`window.policy`).
 pub const POLICIES: [&str; 3] = ["fixed", "sign", "proportional"];
 /// σ²_ref modes (`sigma_ref.mode`).
@@ -214,36 +295,36 @@ pub static PARAMS: &[ParamSpec] = &[
         name: "window.length",
         kind: ParamType::Int,
         default: "501",
-        description: "window length W of the fixed policy, samples",
-        validate: |v| int_at_least(v, 3),
+        description: "window length W of the fixed policy, samples, [3, 50001]",
+        validate: |v| int_in(v, 3, MAX_WINDOW),
     },
     ParamSpec {
         name: "window.min",
         kind: ParamType::Int,
         default: "171",
-        description: "lambda1: shortest adaptive window, samples",
-        validate: |v| int_at_least(v, 3),
+        description: "lambda1: shortest adaptive window, samples, [3, 50001]",
+        validate: |v| int_in(v, 3, MAX_WINDOW),
     },
     ParamSpec {
         name: "window.max",
         kind: ParamType::Int,
         default: "501",
-        description: "lambda2: longest adaptive window, samples (memory is O(K*lambda2) per axis)",
-        validate: |v| int_at_least(v, 3),
+        description: "lambda2: longest adaptive window, samples, [3, 50001] (memory is O(K*lambda2) per axis, K*(lambda2+8) <= 2^21)",
+        validate: |v| int_in(v, 3, MAX_WINDOW),
     },
     ParamSpec {
         name: "window.step",
         kind: ParamType::Int,
         default: "4",
-        description: "Delta W: step of the sign policy, and step per doubling of F/F~ of the proportional policy, samples (even keeps an odd window centred)",
-        validate: |v| int_at_least(v, 1),
+        description: "Delta W: step of the sign policy, and step per doubling of F/F~ of the proportional policy, samples, [1, 50001] (even keeps an odd window centred)",
+        validate: |v| int_in(v, 1, MAX_WINDOW),
     },
     ParamSpec {
         name: "window.max_step",
         kind: ParamType::Int,
         default: "32",
-        description: "largest move per row of the proportional policy, samples",
-        validate: |v| int_at_least(v, 1),
+        description: "largest move per row of the proportional policy, samples, [1, 50001]",
+        validate: |v| int_in(v, 1, MAX_WINDOW),
     },
     ParamSpec {
         name: "f_target",
@@ -298,7 +379,7 @@ pub static PARAMS: &[ParamSpec] = &[
         name: "taus",
         kind: ParamType::Str,
         default: "10",
-        description: "tau grid: all, octave, decade, or N log-spaced factors per decade (cut at window/3)",
+        description: "tau grid: all, octave, decade, or N log-spaced factors per decade (cut at window/3; tau values x (window + 8) <= 2^21)",
         validate: |v| match v {
             ParamValue::Str(s) => s.parse::<TauGrid>().map(|_| ()).map_err(|e| e.to_string()),
             _ => Err("must be a string".into()),
@@ -308,8 +389,15 @@ pub static PARAMS: &[ParamSpec] = &[
         name: "tau0",
         kind: ParamType::Float,
         default: "0.0",
-        description: "nominal sample period, seconds; 0 = estimate from stamps (median interval)",
-        validate: non_negative,
+        description: "nominal sample period, seconds, 0 or [1e-5, 86400]; 0 = estimate from stamps (median interval)",
+        validate: |v| match v {
+            ParamValue::Float(x) if *x == 0.0 => Ok(()),
+            ParamValue::Float(x) if (TAU0_RANGE_S.0..=TAU0_RANGE_S.1).contains(x) => Ok(()),
+            _ => Err(format!(
+                "must be 0 (from the stamps) or in [{:e}, {}] s",
+                TAU0_RANGE_S.0, TAU0_RANGE_S.1
+            )),
+        },
     },
     ParamSpec {
         name: "events.z",
@@ -554,6 +642,8 @@ pub fn config_from_params(
     let taus: TauGrid = text("taus")?
         .parse()
         .map_err(|e: crate::allan::TauGridError| invalid("taus", e.0.clone(), "not a tau grid"))?;
+    check_grid_size(&taus, policy.max_window())
+        .map_err(|reason| invalid("taus", taus.to_string(), &reason))?;
     let tau0 = float("tau0")?;
     Ok(DavarConfig {
         policy,
@@ -640,6 +730,94 @@ mod tests {
             from_yaml_str("fdavar: [1"),
             Err(ParamsError::Yaml(_))
         ));
+    }
+
+    /// Issue 13: values the validators let through that then overflowed, aborted, took tens of
+    /// seconds or spun forever; each is refused, naming the parameter and its bound.
+    #[test]
+    fn values_beyond_the_memory_and_time_bounds_are_refused() {
+        let msg = |body: &str| parse(body).unwrap_err().to_string();
+        let cases = [
+            (
+                "    window: {max: 9223372036854775807}\n",
+                "parameter 'window.max'",
+                "[3, 50001]",
+            ),
+            (
+                "    window: {max: 1000000000}\n",
+                "parameter 'window.max'",
+                "[3, 50001]",
+            ),
+            (
+                "    window: {max: 10000000}\n",
+                "parameter 'window.max'",
+                "[3, 50001]",
+            ),
+            (
+                "    window: {policy: fixed, length: 1000000000}\n",
+                "parameter 'window.length'",
+                "[3, 50001]",
+            ),
+            (
+                "    window: {min: 50002}\n",
+                "parameter 'window.min'",
+                "[3, 50001]",
+            ),
+            (
+                "    window: {step: 9223372036854775807}\n",
+                "parameter 'window.step'",
+                "[1, 50001]",
+            ),
+            (
+                "    window: {max_step: 60000}\n",
+                "parameter 'window.max_step'",
+                "[1, 50001]",
+            ),
+            (
+                "    window: {policy: fixed, length: 60001}\n    taus: all\n",
+                "parameter 'window.length'",
+                "[3, 50001]",
+            ),
+            (
+                "    window: {policy: fixed, length: 50001}\n    taus: all\n",
+                "parameter 'taus'",
+                "16667 tau values",
+            ),
+            (
+                "    window: {max: 3001}\n    taus: all\n",
+                "parameter 'taus'",
+                "2097152",
+            ),
+            ("    tau0: 1.0e-300\n", "parameter 'tau0'", "[1e-5, 86400]"),
+            ("    tau0: 1.0e-21\n", "parameter 'tau0'", "[1e-5, 86400]"),
+            ("    tau0: 1.0e6\n", "parameter 'tau0'", "[1e-5, 86400]"),
+        ];
+        for (body, name, bound) in cases {
+            let m = msg(body);
+            assert!(m.contains(name) && m.contains(bound), "{body}: {m}");
+        }
+        // The edges are accepted: the longest window with the default grid (40 τ values), `all`
+        // on the longest window it fits, the τ0 range's ends and 0 (from the stamps).
+        let edge = parse("    window: {policy: fixed, length: 50001}\n").unwrap();
+        let k = edge.taus.factors(MAX_WINDOW as usize / 3).len();
+        assert_eq!(k, 40);
+        assert!(k * (MAX_WINDOW as usize + 8) <= MAX_PREFIX_CELLS);
+        parse("    window: {policy: fixed, length: 2501}\n    taus: all\n").unwrap();
+        parse("    window: {max: 50001, step: 50001, max_step: 50001}\n").unwrap();
+        for tau0 in ["1.0e-5", "86400.0", "0.0"] {
+            parse(&format!("    tau0: {tau0}\n")).unwrap();
+        }
+        // Against the stamps' own period: a factor of 10 either way.
+        check_tau0_against_period(0.3, 0.03).unwrap();
+        check_tau0_against_period(0.003, 0.03).unwrap();
+        let e = check_tau0_against_period(1e-5, 0.03)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("parameter 'tau0' = 1e-5") && e.contains("0.03 s"),
+            "{e}"
+        );
+        assert!(check_tau0_against_period(0.31, 0.03).is_err());
     }
 
     #[test]

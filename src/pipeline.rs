@@ -1,7 +1,8 @@
 //! The one path from IMU samples to DAVAR rows, shared by the offline CLI and the live node.
 //!
 //! `ImuSample` → [`Intake`] (τ0, stamp checks: gaps become missing-sample markers, duplicates and
-//! stamps going backwards are dropped and counted, NaN/∞ values counted; the same intake feeds the
+//! stamps going backwards are dropped and counted — a clock that went back for good is
+//! re-anchored —, NaN/∞ values and values beyond 10⁶ counted; the same intake feeds the
 //! whole-run analysis of [`crate::analysis`]) → one [`DavarEngine`] and one [`ChangeDetector`] per
 //! axis (a non-finite value is a missing sample of its axis) → rows tagged with axis, time and
 //! stamp, and change events.
@@ -190,7 +191,7 @@ pub fn record_variances_in_two_passes<E>(
     pass(&mut |s| {
         for a in Axis::ALL {
             let v = s.value(a);
-            if v.is_finite() {
+            if crate::signal::is_usable(v) {
                 sum[a.index()] += v;
                 n[a.index()] += 1;
             }
@@ -201,7 +202,7 @@ pub fn record_variances_in_two_passes<E>(
     pass(&mut |s| {
         for a in Axis::ALL {
             let v = s.value(a);
-            if v.is_finite() {
+            if crate::signal::is_usable(v) {
                 let d = v - mean[a.index()];
                 m2[a.index()] += d * d;
             }
@@ -596,6 +597,28 @@ mod tests {
         let (a, b) = (run(1), run(77));
         assert_eq!(a, b);
         assert!(!a.events.is_empty());
+    }
+
+    /// Issue 13: ten ±1e300 samples overflowed the running σ²_ref and left F NaN for the rest of
+    /// the run. The intake now places them as missing: every later row has a finite F.
+    #[test]
+    fn absurd_values_do_not_poison_sigma_ref_or_f() {
+        let mut p = Pipeline::new(config(), &[Axis::GyroX], None).unwrap();
+        let mut out = Output::default();
+        for k in 0..600i64 {
+            let mut s = sample(k, k * 10_000_000, 0.0);
+            if (100..110).contains(&k) {
+                s.gyro[0] = if k % 2 == 0 { 1e300 } else { -1e300 };
+            }
+            p.push(&s, &mut out);
+        }
+        let late: Vec<&AxisRow> = out.rows.iter().filter(|r| r.row.index > 200).collect();
+        assert!(!late.is_empty());
+        for r in late {
+            let (f, s2) = (r.row.f.unwrap(), r.row.sigma2_ref.unwrap());
+            assert!(f.is_finite() && s2.is_finite() && s2 < 1.0, "{f} {s2}");
+        }
+        assert_eq!(p.irregularities().non_finite, 10);
     }
 
     #[test]

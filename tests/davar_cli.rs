@@ -140,7 +140,8 @@ fn errors_exit_non_zero_with_a_message() {
         ])
         .output()
         .unwrap();
-    assert_eq!(bad_params.status.code(), Some(1));
+    // A refused parameter value is a usage error (issue 13: exit 2).
+    assert_eq!(bad_params.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&bad_params.stderr).contains("window.min"));
 
     let usage = fdavar()
@@ -287,4 +288,93 @@ fn every_keeps_the_first_row_of_each_interval() {
     let ratio = all["rows"].as_array().unwrap().len() as f64 / kept.len() as f64;
     assert!((ratio - 0.5 / 0.03).abs() < 0.5, "{ratio}");
     assert_eq!(some["events"], all["events"]);
+}
+
+/// Issue 13: parameter values that passed validation and then panicked (capacity overflow), aborted
+/// (allocation failure), ran for tens of seconds or spun forever are refused before any work: exit
+/// 2 and one `fdavar: error:` line naming the parameter, within a second.
+#[test]
+fn values_that_crashed_or_hung_are_refused_with_exit_2() {
+    let data = seed_signal_file(false);
+    let cases: &[(&str, &str)] = &[
+        ("window: {max: 9223372036854775807}", "window.max"),
+        ("window: {max: 1000000000}", "window.max"),
+        ("window: {policy: fixed, length: 1000000000}", "window.length"),
+        ("window: {max: 10000000}", "window.max"),
+        ("window: {policy: fixed, length: 60001}", "window.length"),
+        ("window: {policy: fixed, length: 50001}\n    taus: all", "taus"),
+        ("tau0: 1.0e-300", "tau0"),
+        ("tau0: 1.0e-22", "tau0"),
+        ("window: {step: 9223372036854775807}", "window.step"),
+    ];
+    for (body, name) in cases {
+        let mut params = tempfile::NamedTempFile::new().unwrap();
+        writeln!(params, "fdavar:\n  ros__parameters:\n    {body}").unwrap();
+        let start = std::time::Instant::now();
+        let out = fdavar()
+            .args(["davar", data.path().to_str().unwrap(), "--rate", "33.3333"])
+            .args(["--params", params.path().to_str().unwrap()])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{body}: {stderr}");
+        let lines: Vec<&str> = stderr.lines().collect();
+        assert_eq!(lines.len(), 1, "{body}: {stderr}");
+        assert!(lines[0].starts_with("fdavar: error: invalid parameters in "), "{stderr}");
+        assert!(lines[0].contains(&format!("parameter '{name}'")), "{body}: {stderr}");
+        assert!(start.elapsed().as_secs_f64() < 5.0, "{body}: {:?}", start.elapsed());
+    }
+    // The largest window with the default grid, and `all` with the longest window it fits, run.
+    for body in [
+        "window: {policy: fixed, length: 50001}",
+        "window: {policy: fixed, length: 2501}\n    taus: all",
+    ] {
+        let mut params = tempfile::NamedTempFile::new().unwrap();
+        writeln!(params, "fdavar:\n  ros__parameters:\n    {body}").unwrap();
+        let out = fdavar()
+            .args(["davar", data.path().to_str().unwrap(), "--rate", "33.3333"])
+            .args(["--params", params.path().to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(0), "{body}: {}", String::from_utf8_lossy(&out.stderr));
+    }
+    // On a bag a given tau0 must fit the stamps (30 ms here) within a factor of 10: 1e-5 s is in
+    // the range but made every interval a gap of 3000 samples (12 s for 3600 samples).
+    let bag = concat!(env!("CARGO_MANIFEST_DIR"), "/bags/seed_2016");
+    let mut params = tempfile::NamedTempFile::new().unwrap();
+    writeln!(params, "fdavar:\n  ros__parameters:\n    tau0: 1.0e-5").unwrap();
+    let out = fdavar()
+        .args(["davar", bag, "--params", params.path().to_str().unwrap()])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("parameter 'tau0' = 1e-5") && stderr.contains("0.03"), "{stderr}");
+    // --rate gives tau0 too: the same range.
+    let out = fdavar()
+        .args(["davar", data.path().to_str().unwrap(), "--rate", "1e300"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("--rate") && stderr.contains("tau0"), "{stderr}");
+}
+
+/// Issue 13: `fdavar allan /dev/zero` read one endless line into memory; now the line limit stops
+/// it at once (exit 1, one line naming the file and the limit).
+#[cfg(unix)]
+#[test]
+fn a_file_without_line_breaks_is_refused() {
+    let start = std::time::Instant::now();
+    let out = fdavar()
+        .args(["allan", "/dev/zero", "--rate", "100"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.starts_with("fdavar: error: "), "{stderr}");
+    assert!(stderr.contains("/dev/zero:1: line longer than 65536 bytes"), "{stderr}");
+    assert!(start.elapsed().as_secs_f64() < 5.0, "{:?}", start.elapsed());
 }

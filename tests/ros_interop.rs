@@ -1563,23 +1563,31 @@ fn live_equals_offline_on_a_recording_with_nan_a_gap_and_a_backwards_stamp() {
     samples[5000].accel[0] = f64::INFINITY;
     samples.drain(6000..6400);
     samples[8000].stamp_ns = samples[7999].stamp_ns - 3_000_000;
+    // Issue 13: a value no sensor gives (left out like NaN), and the publisher restarting with
+    // its clock 20 s back at sample 10 000 (dropped as backwards, re-anchored at the 50th).
+    samples[4000].gyro[2] = 1e300;
+    let unshifted: Vec<i64> = samples.iter().map(|s| s.stamp_ns).collect();
+    for s in &mut samples[10_000..] {
+        s.stamp_ns -= 20_000_000_000;
+    }
     let messages = samples.len() as u64;
     // Log times in write order, 5 ms apart, as a recorder receiving them would have logged them.
     let mut writer = fdavar::bag::BagWriter::create(&bag).unwrap();
     for (k, s) in samples.iter().enumerate() {
-        let log = log_time_ns(s.stamp_ns.max(samples[k.saturating_sub(1)].stamp_ns));
+        let log = log_time_ns(unshifted[k].max(unshifted[k.saturating_sub(1)]));
         writer.write_imu("/imu", log, s, "imu_link").unwrap();
     }
     writer.finish().unwrap();
     let (v, differences) = replay_and_compare(&bag, messages, 78);
     assert!(differences.is_empty(), "live ≠ offline:\n{}", differences.join("\n"));
-    // And says what it left out: three messages (NaN, Inf, the backwards stamp) not counted as
-    // samples; four holes in the series (those three and the 2 s gap); no queue drops.
+    // And says what it left out: 53 messages (NaN, Inf, 1e300, the backwards stamp, the 49
+    // dropped before the re-anchor) not counted as samples; five holes in the series (the first
+    // four and the 2 s gap; the re-anchor starts a new clock); no queue drops.
     for axis in AXES {
         let s = &v["model"][axis];
         eprintln!("{axis}: samples {} drops {} gaps {}", s["samples"], s["drops"], s["gaps"]);
-        assert_eq!(s["samples"].as_u64(), Some(messages - 3), "{axis}");
-        assert_eq!(s["gaps"].as_u64(), Some(4), "{axis}");
+        assert_eq!(s["samples"].as_u64(), Some(messages - 53), "{axis}");
+        assert_eq!(s["gaps"].as_u64(), Some(5), "{axis}");
         assert_eq!(s["drops"].as_u64(), Some(0), "{axis}");
     }
 }

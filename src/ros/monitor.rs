@@ -66,6 +66,8 @@ pub enum BadInput {
     NonFinite,
     /// A stamp earlier than the previous one.
     Backwards,
+    /// [`crate::signal::REANCHOR_AFTER`] backwards stamps in a row: the clock went back.
+    Reanchor,
     /// The same stamp as the previous one.
     Duplicate,
     /// A zero stamp in a stream whose stamps are not zero (dropped).
@@ -82,8 +84,13 @@ impl BadInput {
     /// A sentence for the log.
     pub fn describe(self) -> &'static str {
         match self {
-            BadInput::NonFinite => "NaN/Inf value in an IMU message: that axis's sample is dropped",
+            BadInput::NonFinite => {
+                "NaN/Inf (or |value| > 1e6) in an IMU message: that axis's sample is dropped"
+            }
             BadInput::Backwards => "IMU stamp went backwards: sample dropped",
+            BadInput::Reanchor => {
+                "IMU clock went back: 50 backwards stamps in a row, re-anchored on the new stamps"
+            }
             BadInput::Duplicate => "duplicate IMU stamp: sample dropped",
             BadInput::ZeroStamp => "zero IMU header stamp in a stamped stream: sample dropped",
             BadInput::Gap => {
@@ -112,6 +119,8 @@ pub struct Counters {
     pub duplicates: u64,
     /// Stamps going backwards (dropped).
     pub backwards: u64,
+    /// Times the clock went back for good and the stamps were re-anchored.
+    pub reanchors: u64,
     /// Zero stamps (receive time used).
     pub zero_stamps: u64,
     /// Non-finite values, per axis in [`Axis::ALL`] order.
@@ -148,6 +157,11 @@ pub struct Monitor {
     period: PeriodEstimator,
     check: Option<StampCheck>,
     last_good_ns: Option<i64>,
+    /// Backwards stamps in a row since the last good one (re-anchor at
+    /// [`crate::signal::REANCHOR_AFTER`], as the engine's intake does).
+    backwards_run: (u32, Option<i64>),
+    /// A re-anchor since the last publish (WARN).
+    recent_reanchor: bool,
     first_stamp_ns: Option<i64>,
     counters: Counters,
     /// Kinds already logged (each is logged once).
@@ -185,6 +199,8 @@ impl Monitor {
             period: PeriodEstimator::new(50),
             check: None,
             last_good_ns: None,
+            backwards_run: (0, None),
+            recent_reanchor: false,
             first_stamp_ns: None,
             counters: Counters::default(),
             logged: Default::default(),
@@ -275,6 +291,12 @@ impl Monitor {
         }
     }
 
+    /// The stamps' median interval over the first 50, s, once seen (what a live `tau0` is
+    /// checked against).
+    pub fn sample_period_s(&self) -> Option<f64> {
+        self.period.period()
+    }
+
     /// The counters so far.
     pub fn counters(&self) -> Counters {
         self.counters
@@ -345,9 +367,9 @@ impl Monitor {
             return false;
         }
         let values = sample.values();
-        if values.iter().any(|v| !v.is_finite()) {
-            for (i, v) in values.iter().enumerate() {
-                if !v.is_finite() {
+        if values.iter().any(|&v| !crate::signal::is_usable(v)) {
+            for (i, &v) in values.iter().enumerate() {
+                if !crate::signal::is_usable(v) {
                     self.counters.non_finite[i] += 1;
                     self.recent_non_finite[i] += 1;
                 }
@@ -362,11 +384,22 @@ impl Monitor {
                 return false;
             }
             if sample.stamp_ns < last {
-                self.counters.backwards += 1;
-                log.extend(self.note(BadInput::Backwards));
-                return false;
+                self.backwards_run =
+                    crate::signal::backwards_run(self.backwards_run, sample.stamp_ns);
+                if self.backwards_run.0 < crate::signal::REANCHOR_AFTER {
+                    self.counters.backwards += 1;
+                    log.extend(self.note(BadInput::Backwards));
+                    return false;
+                }
+                // The clock went back for good: start again from this stamp.
+                self.counters.reanchors += 1;
+                self.recent_reanchor = true;
+                log.extend(self.note(BadInput::Reanchor));
+                self.check = self.period.period().map(StampCheck::new);
+                self.rate_window = None;
             }
         }
+        self.backwards_run = (0, None);
         let period = self.period.push(sample.stamp_ns);
         if let (None, Some(p)) = (&self.check, period) {
             let mut check = StampCheck::new(p);
@@ -452,6 +485,7 @@ impl Monitor {
                 KeyValue::new("gaps", c.gaps),
                 KeyValue::new("duplicates", c.duplicates),
                 KeyValue::new("backwards", c.backwards),
+                KeyValue::new("reanchors", c.reanchors),
                 KeyValue::new("non_finite", c.non_finite[i]),
                 KeyValue::new("zero_stamps", c.zero_stamps),
                 KeyValue::new("rate_changes", c.rate_changes),
@@ -532,7 +566,12 @@ impl Monitor {
                 } else if self.recent_non_finite[i] > 0 {
                     (
                         Level::Warn,
-                        "non-finite values on this axis were dropped".to_string(),
+                        "non-finite or out-of-range values on this axis were dropped".to_string(),
+                    )
+                } else if self.recent_reanchor {
+                    (
+                        Level::Warn,
+                        "IMU clock went back: stamps re-anchored".to_string(),
                     )
                 } else {
                     (Level::Ok, "ok".to_string())
@@ -558,6 +597,7 @@ impl Monitor {
             }
         }
         self.recent_non_finite = [0; 6];
+        self.recent_reanchor = false;
         let array = DiagnosticArray {
             header: Header {
                 // A node time past 2038 cannot be a ROS Time: publish zero rather than fail.
@@ -650,6 +690,58 @@ mod tests {
         assert_eq!(c.samples, 102);
         assert_eq!(m.drain_rows().len(), 110);
         assert!(m.drain_rows().is_empty());
+    }
+
+    /// Issue 13: after the publisher restarted with older stamps the node counted every later
+    /// sample as backwards, forever, with status "ok". Now it re-anchors after 50 in a row, as the
+    /// engine's intake does, logs it once and reports WARN at the next publication.
+    #[test]
+    fn a_clock_that_goes_back_re_anchors_with_a_warning() {
+        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(Echo)));
+        let mut logged = Vec::new();
+        let mut t = 1_000 * MS;
+        for _ in 0..100 {
+            t += 10 * MS;
+            logged.extend(m.push(sample(t, 0.1), "imu", t));
+        }
+        let (a, _, _) = m.report(t);
+        assert_eq!(level(&a, 0), Level::Ok as u8, "{a:?}");
+        for k in 1..=200 {
+            logged.extend(m.push(sample(k * 10 * MS, 0.1), "imu", t + k * 10 * MS));
+        }
+        let c = m.counters();
+        assert_eq!((c.backwards, c.reanchors), (49, 1));
+        assert_eq!(c.samples, 100 + 151);
+        assert!(
+            logged.iter().any(|l| l.contains("re-anchored")),
+            "{logged:?}"
+        );
+        let (a, _, _) = m.report(t + 2_000 * MS);
+        assert_eq!(level(&a, 0), Level::Warn as u8, "{a:?}");
+        assert!(a.status[0].message.contains("clock went back"), "{a:?}");
+        assert_eq!(value(&a, 0, "reanchors"), "1");
+        let (a, _, _) = m.report(t + 2_000 * MS);
+        assert_eq!(level(&a, 0), Level::Ok as u8, "one warning per re-anchor");
+    }
+
+    /// Issue 13: ±1e300 values count as dropped values (WARN), like NaN.
+    #[test]
+    fn absurd_values_are_counted_like_non_finite_ones() {
+        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(Echo)));
+        let mut t = 0;
+        for k in 0..100 {
+            t += 10 * MS;
+            let v = if k % 10 == 0 {
+                1e300 * (-1f64).powi(k)
+            } else {
+                0.1
+            };
+            m.push(sample(t, v), "imu", t);
+        }
+        assert_eq!(m.counters().non_finite[0], 10);
+        let (a, _, _) = m.report(t);
+        assert_eq!(level(&a, 0), Level::Warn as u8, "{a:?}");
+        assert!(a.status[0].message.contains("out-of-range"), "{a:?}");
     }
 
     #[test]

@@ -307,6 +307,10 @@ pub fn run(
     // The DAVAR values in force: a change is validated together with the others.
     let davar_now = Arc::new(std::sync::Mutex::new(config.davar.clone()));
     let davar_check = Arc::clone(&davar_now);
+    // The stamps' period once the analysis has seen it (f64 bits; 0 = not yet): a live tau0 is
+    // checked against it.
+    let period_bits = Arc::new(AtomicU64::new(0));
+    let (period_check, period_set) = (Arc::clone(&period_bits), Arc::clone(&period_bits));
     // ros2-client also runs the validator and the set action on the declared (startup) values,
     // which were checked when read (defaults are trusted): until the node exists, both accept.
     let running = Arc::new(AtomicBool::new(false));
@@ -322,7 +326,8 @@ pub fn run(
                 let current = davar_check
                     .lock()
                     .map_err(|_| "parameter lock poisoned".to_string())?;
-                return params::davar_change(&current, name, value).map(|_| ());
+                let measured = measured_period(&period_check);
+                return params::davar_change_live(&current, name, value, measured).map(|_| ());
             }
             let spec = params::spec(name).ok_or_else(|| format!("unknown parameter '{name}'"))?;
             if !spec.live {
@@ -342,7 +347,8 @@ pub fn run(
                 let mut current = davar_now
                     .lock()
                     .map_err(|_| "parameter lock poisoned".to_string())?;
-                let (next, config) = params::davar_change(&current, name, value)?;
+                let measured = measured_period(&period_set);
+                let (next, config) = params::davar_change_live(&current, name, value, measured)?;
                 *current = next;
                 Control::Davar(name.to_string(), Box::new(config))
             } else {
@@ -483,6 +489,7 @@ pub fn run(
         clock: clock.clone(),
         log: log.clone(),
         drops: Arc::clone(&drops),
+        period_bits,
         dump,
         latency: Latency {
             ring: Vec::new(),
@@ -682,6 +689,11 @@ fn receive_loop(
     Ok(())
 }
 
+/// The stamps' period the analysis thread stored, once known.
+fn measured_period(bits: &AtomicU64) -> Option<f64> {
+    Some(f64::from_bits(bits.load(Ordering::Relaxed))).filter(|p| *p > 0.0)
+}
+
 /// The analysis thread: owns the monitor and the publishers.
 struct Analysis {
     monitor: Monitor,
@@ -692,6 +704,8 @@ struct Analysis {
     clock: NodeClock,
     log: Log,
     drops: Arc<AtomicU64>,
+    /// The stamps' period for the parameter validator ([`measured_period`]).
+    period_bits: Arc<AtomicU64>,
     dump: Option<DumpWriter>,
     latency: Latency,
 }
@@ -713,6 +727,9 @@ impl Analysis {
                         self.log.warn(line);
                     }
                     self.latency.record(received.elapsed().as_secs_f64());
+                    if let Some(p) = self.monitor.sample_period_s() {
+                        self.period_bits.store(p.to_bits(), Ordering::Relaxed);
+                    }
                     if self.dump.is_some() {
                         self.dump_rows();
                     }

@@ -236,6 +236,12 @@ pub enum ParamError {
         /// The validator's reason.
         reason: String,
     },
+    /// A DAVAR value the DAVAR table refused; the reason names the parameter and its value.
+    #[error("{reason}")]
+    Davar {
+        /// The reason, e.g. `parameter 'window.max' = 1000000000: must be in [3, 50001]`.
+        reason: String,
+    },
     /// A parameter file could not be read.
     #[error("parameter file {path}: {reason}")]
     File {
@@ -425,6 +431,25 @@ pub fn davar_change(
     Ok((next, config))
 }
 
+/// [`davar_change`] on a running node: a given `tau0` must also lie within
+/// [`crate::params::TAU0_PERIOD_FACTOR`] of the period the stamps show (`measured_period_s`, once
+/// known).
+///
+/// # Errors
+/// As [`davar_change`], and the `tau0` refusal of [`crate::params::check_tau0_against_period`].
+pub fn davar_change_live(
+    current: &BTreeMap<String, DavarValue>,
+    name: &str,
+    value: &ParameterValue,
+    measured_period_s: Option<f64>,
+) -> Result<(BTreeMap<String, DavarValue>, DavarConfig), String> {
+    let (next, config) = davar_change(current, name, value)?;
+    if let (Some(tau0), Some(measured)) = (config.tau0, measured_period_s) {
+        crate::params::check_tau0_against_period(tau0, measured).map_err(|e| e.to_string())?;
+    }
+    Ok((next, config))
+}
+
 /// The DAVAR parameter values at startup: defaults, then the files' DAVAR keys, then `-p`.
 ///
 /// # Errors
@@ -437,10 +462,7 @@ pub fn davar_startup(
         .iter()
         .map(|p| (p.name.to_string(), p.default_value()))
         .collect();
-    let invalid = |name: &str, reason: String| ParamError::Invalid {
-        name: name.to_string(),
-        reason,
-    };
+    let invalid = |reason: String| ParamError::Davar { reason };
     for file in files {
         let text = std::fs::read_to_string(file).map_err(|e| ParamError::File {
             path: file.display().to_string(),
@@ -458,21 +480,21 @@ pub fn davar_startup(
         };
         for (name, value) in from_file {
             if let Some(spec) = crate::params::spec(&name) {
-                let value = spec
-                    .check(&value)
-                    .map_err(|e| invalid(&name, e.to_string()))?;
+                let value = spec.check(&value).map_err(|e| ParamError::Davar {
+                    reason: e.to_string(),
+                })?;
                 values.insert(name, value);
             }
         }
     }
     for (name, value) in overrides.iter().filter(|(n, _)| is_davar(n)) {
-        let (next, _) = davar_change(&values, name, value).map_err(|r| invalid(name, r))?;
+        let (next, _) =
+            davar_change(&values, name, value).map_err(|reason| ParamError::Davar { reason })?;
         values = next;
     }
-    let config = crate::params::config_from_params(&values)
-        .map_err(|e| invalid("(DAVAR settings)", e.to_string()))?;
+    let config = crate::params::config_from_params(&values).map_err(|e| invalid(e.to_string()))?;
     crate::pipeline::Pipeline::new(config.clone(), &crate::signal::Axis::ALL, None)
-        .map_err(|e| invalid("(DAVAR settings)", e.to_string()))?;
+        .map_err(|e| invalid(e.to_string()))?;
     Ok((values, config))
 }
 
@@ -530,6 +552,83 @@ mod tests {
             "/fdavar"
         )
         .is_ok());
+    }
+
+    /// Issue 13: the node validates `-p`, parameter files and SetParameters with the DAVAR table's
+    /// bounds: values that panicked the spin thread (capacity overflow), aborted (allocation) or
+    /// spun forever (τ0 1e-300) are refused with the reason, and the values in force stay.
+    #[test]
+    fn davar_values_beyond_the_bounds_are_refused_live_and_at_startup() {
+        let (values, _) = davar_startup(&[], &[]).unwrap();
+        let cases = [
+            (
+                "window.max",
+                ParameterValue::Integer(i64::MAX),
+                "[3, 50001]",
+            ),
+            (
+                "window.max",
+                ParameterValue::Integer(1_000_000_000),
+                "[3, 50001]",
+            ),
+            (
+                "window.max",
+                ParameterValue::Integer(10_000_000),
+                "[3, 50001]",
+            ),
+            (
+                "window.length",
+                ParameterValue::Integer(1_000_000_000),
+                "[3, 50001]",
+            ),
+            ("tau0", ParameterValue::Double(1e-300), "[1e-5, 86400]"),
+        ];
+        for (name, value, bound) in &cases {
+            let e = davar_change(&values, name, value).unwrap_err();
+            assert!(
+                e.contains(&format!("parameter '{name}'")) && e.contains(bound),
+                "{e}"
+            );
+            let e = davar_startup(&[], &[(name.to_string(), value.clone())]).unwrap_err();
+            let text = e.to_string();
+            assert!(text.contains(name) && text.contains(bound), "{text}");
+        }
+        // `taus: all` is refused against the window in force, and the window against the grid.
+        let (fixed, _) = davar_change(
+            &values,
+            "window.policy",
+            &ParameterValue::String("fixed".into()),
+        )
+        .unwrap();
+        let (fixed, _) =
+            davar_change(&fixed, "window.length", &ParameterValue::Integer(50_001)).unwrap();
+        let e = davar_change(&fixed, "taus", &ParameterValue::String("all".into())).unwrap_err();
+        assert!(
+            e.contains("parameter 'taus'") && e.contains("prefix cells"),
+            "{e}"
+        );
+        // Live, a τ0 is also checked against the period the stamps show.
+        let e = davar_change_live(&values, "tau0", &ParameterValue::Double(1e-5), Some(0.03))
+            .unwrap_err();
+        assert!(
+            e.contains("parameter 'tau0' = 1e-5") && e.contains("0.03 s"),
+            "{e}"
+        );
+        davar_change_live(&values, "tau0", &ParameterValue::Double(0.03), Some(0.03)).unwrap();
+        davar_change_live(&values, "tau0", &ParameterValue::Double(1e-5), None).unwrap();
+        // A parameter file holding them stops the node at startup with the reason.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.yaml");
+        std::fs::write(
+            &path,
+            "fdavar:\n  ros__parameters:\n    window: {policy: fixed, length: 60001}\n",
+        )
+        .unwrap();
+        let e = davar_startup(&[path], &[]).unwrap_err().to_string();
+        assert!(
+            e.contains("window.length") && e.contains("[3, 50001]"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -6,20 +6,27 @@
 //! - τ0 is the configured period, or the median of the first `settle` positive stamp intervals
 //!   (samples are held back until then, not lost);
 //! - a duplicate or backwards stamp is dropped and counted (the sensor clock decides the order;
-//!   nothing is re-sorted);
+//!   nothing is re-sorted), until [`REANCHOR_AFTER`] backwards stamps come in a row: the clock went
+//!   back for good (a restarted publisher), so that stamp is placed as the new reference, after a
+//!   gap of the samples dropped while deciding (counted in `reanchors`, not `backwards`);
 //! - a gap (interval > 1.5 τ0) is reported as the number of missing periods before the sample, so
 //!   that no Allan term straddles it;
 //! - a NaN or infinite value stays in its axis (each analysis treats it as a missing value of that
-//!   axis) and is counted once per value.
+//!   axis) and is counted once per value; a value beyond [`MAX_ABS_RATE`] (10⁶ rad/s or m/s²) is
+//!   not a measurement: it is placed as NaN and counted the same way, so that it cannot overflow
+//!   σ²_ref or F.
 
-use super::{Axis, ImuSample, Irregularities, PeriodEstimator, StampCheck, StampClass};
+use super::{is_usable, Axis, ImuSample, Irregularities, PeriodEstimator, StampCheck, StampClass};
+#[cfg(doc)]
+use super::{MAX_ABS_RATE, REANCHOR_AFTER};
 
 /// One sample as the intake placed it on the grid.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Placed {
     /// Whole periods missing just before this sample (a gap), 0 normally.
     pub missing_before: u64,
-    /// The sample (its values may be non-finite).
+    /// The sample (its values may be NaN or ±∞: missing on that axis; values beyond
+    /// [`super::MAX_ABS_RATE`] arrive here as NaN).
     pub sample: ImuSample,
 }
 
@@ -116,17 +123,31 @@ impl Intake {
         let missing_before = match check.check(sample.stamp_ns) {
             StampClass::Duplicate | StampClass::Backwards => return,
             StampClass::Gap { missing } => missing,
+            StampClass::Reanchored { dropped } => dropped,
             StampClass::Next => 0,
         };
-        for (v, counted) in sample.values().into_iter().zip(self.counted) {
-            if counted && !v.is_finite() {
-                check.count_non_finite();
+        let mut sample = *sample;
+        let fix = |v: &mut f64, counted: bool, check: &mut StampCheck| {
+            if !is_usable(*v) {
+                if v.is_finite() {
+                    *v = f64::NAN;
+                }
+                if counted {
+                    check.count_non_finite();
+                }
             }
+        };
+        let [c0, c1, c2, c3, c4, c5] = self.counted;
+        for (v, counted) in sample.gyro.iter_mut().zip([c0, c1, c2]) {
+            fix(v, counted, check);
+        }
+        for (v, counted) in sample.accel.iter_mut().zip([c3, c4, c5]) {
+            fix(v, counted, check);
         }
         self.first_stamp_ns.get_or_insert(sample.stamp_ns);
         place(Placed {
             missing_before,
-            sample: *sample,
+            sample,
         });
     }
 }
@@ -179,6 +200,87 @@ mod tests {
         assert_eq!(placed.len(), 2);
         assert!(placed[1].sample.gyro[0].is_nan());
         assert_eq!(intake.irregularities().non_finite, 1);
+    }
+
+    /// Issue 13: after the sensor clock went back (a publisher restarted with older stamps) every
+    /// later sample was dropped as backwards, forever. Now the 50th backwards stamp in a row
+    /// re-anchors: it is placed after a gap of the 49 dropped, and the samples after it flow.
+    #[test]
+    fn a_clock_that_goes_back_re_anchors_after_50_samples() {
+        use crate::signal::REANCHOR_AFTER;
+        let mut intake = Intake::new(Some(0.01), 100);
+        let mut placed = Vec::new();
+        for k in 0..100 {
+            intake.push(&s(10_000 + 10 * k, k as f64), &mut |p| placed.push(p));
+        }
+        // The publisher restarts: its clock starts at 0 ms again.
+        for k in 0..200 {
+            intake.push(&s(10 * k, 1000.0 + k as f64), &mut |p| placed.push(p));
+        }
+        let after: Vec<&Placed> = placed[100..].iter().collect();
+        assert_eq!(REANCHOR_AFTER, 50);
+        assert_eq!(
+            after.len(),
+            200 - 49,
+            "49 dropped while deciding, then every sample"
+        );
+        assert_eq!(after[0].sample.gyro[0], 1049.0);
+        assert_eq!(after[0].sample.stamp_ns, 490 * MS);
+        assert_eq!(after[0].missing_before, 49, "the dropped samples are a gap");
+        assert!(after[1..].iter().all(|p| p.missing_before == 0));
+        let c = intake.irregularities();
+        assert_eq!((c.backwards, c.reanchors, c.gaps), (49, 1, 0));
+        // A few late or replayed stamps are only dropped: the run resets on a good stamp.
+        let mut intake = Intake::new(Some(0.01), 100);
+        let mut n = 0;
+        let mut t = 1000;
+        intake.push(&s(t, 0.0), &mut |_| n += 1);
+        for round in 0..10 {
+            for _ in 0..40 {
+                intake.push(&s(round, 0.0), &mut |_| n += 1);
+            }
+            t += 10;
+            intake.push(&s(t, 0.0), &mut |_| n += 1);
+        }
+        let c = intake.irregularities();
+        assert_eq!((c.backwards, c.reanchors, n), (400, 0, 11));
+        // Stale stamps that do not tick forward never re-anchor: 100 zero stamps in a stamped
+        // stream, or 100 copies of one old stamp, stay dropped.
+        for stale in [0, 500] {
+            for _ in 0..100 {
+                intake.push(&s(stale, 0.0), &mut |_| n += 1);
+            }
+        }
+        let c = intake.irregularities();
+        assert_eq!((c.backwards, c.reanchors, n), (600, 0, 11));
+    }
+
+    /// Issue 13: ten ±1e300 samples overflowed σ²_ref (their square is ∞) and left F NaN for the
+    /// rest of the run. A value beyond 10⁶ (rad/s or m/s²) is placed as NaN and counted like one;
+    /// the largest real one passes.
+    #[test]
+    fn absurd_values_are_placed_as_missing_and_counted() {
+        use crate::signal::MAX_ABS_RATE;
+        let mut intake = Intake::new(Some(0.01), 100).counting(&[Axis::GyroX, Axis::AccelZ]);
+        let mut placed = Vec::new();
+        for (k, v) in [1e300, -1e300, 1.0e6 + 1.0, MAX_ABS_RATE, -MAX_ABS_RATE, 0.5]
+            .into_iter()
+            .enumerate()
+        {
+            let mut sample = s(10 * k as i64, v);
+            sample.accel[2] = v;
+            sample.gyro[1] = v; // not counted (not an analysed axis), still made missing
+            intake.push(&sample, &mut |p| placed.push(p));
+        }
+        let gx: Vec<f64> = placed.iter().map(|p| p.sample.gyro[0]).collect();
+        assert!(gx[..3].iter().all(|v| v.is_nan()), "{gx:?}");
+        assert_eq!(&gx[3..], &[MAX_ABS_RATE, -MAX_ABS_RATE, 0.5]);
+        assert!(placed[0].sample.accel[2].is_nan() && placed[0].sample.gyro[1].is_nan());
+        assert_eq!(
+            intake.irregularities().non_finite,
+            6,
+            "3 values on each counted axis"
+        );
     }
 
     #[test]

@@ -133,6 +133,32 @@ pub struct TemperatureSample {
     pub celsius: f64,
 }
 
+/// Consecutive stamps earlier than the last accepted one, each later than the one before it,
+/// after which the sensor clock is taken to have gone back for good (a restarted publisher, a
+/// reset sensor): the stamp that makes the count becomes the new anchor instead of being dropped.
+/// A run must tick forward: repeated stale stamps (e.g. zero stamps in a stamped stream) never
+/// re-anchor.
+///
+/// Why 50: a single late or replayed message is one backwards stamp, and a burst of reordered
+/// messages is a few; fifty in a row without one good stamp between them is a clock that went
+/// back (0.5 s at 100 Hz, 0.125 s at 400 Hz). Without re-anchoring every later sample was dropped
+/// for the rest of the run (issue 13). The 49 samples dropped while deciding become a gap.
+pub const REANCHOR_AFTER: u32 = 50;
+
+/// The largest magnitude a rate sample can have, rad/s or m/s²; beyond it a value is not a
+/// measurement and is treated as missing, like NaN or ±∞.
+///
+/// Why 10⁶: the fastest gyro ranges are a few thousand °/s (≈ 70 rad/s) and high-g accelerometers
+/// reach 10⁵ m/s² (≈ 10 000 g); 10⁶ is over ten times either, so no real sample is lost, while a
+/// value like ±1e300 (a corrupted message) can no longer overflow σ²_ref (its square is ∞, which
+/// turned F into NaN for the rest of the run, issue 13).
+pub const MAX_ABS_RATE: f64 = 1e6;
+
+/// True for a value the analysis can use: finite and at most [`MAX_ABS_RATE`] in magnitude.
+pub fn is_usable(v: f64) -> bool {
+    v.abs() <= MAX_ABS_RATE
+}
+
 /// What a new stamp is, relative to the previous good one.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum StampClass {
@@ -147,6 +173,12 @@ pub enum StampClass {
     Duplicate,
     /// Earlier than the previous sample.
     Backwards,
+    /// The [`REANCHOR_AFTER`]th backwards stamp in a row: the clock went back, this stamp is the
+    /// new reference (the samples dropped before it count as missing).
+    Reanchored {
+        /// Backwards samples dropped before this one in the run that ended here.
+        dropped: u64,
+    },
 }
 
 /// Counts of the irregularities met so far on one stream (published as-is).
@@ -158,8 +190,43 @@ pub struct Irregularities {
     pub duplicates: u64,
     /// Samples stamped earlier than the previous one (dropped).
     pub backwards: u64,
-    /// Values that were NaN or infinite (that axis's sample dropped).
+    /// Values that were NaN, infinite or beyond [`MAX_ABS_RATE`] (that axis's sample dropped).
     pub non_finite: u64,
+    /// Times the clock went back for good and the stamps were re-anchored ([`REANCHOR_AFTER`]).
+    #[serde(default)]
+    pub reanchors: u64,
+}
+
+impl Irregularities {
+    /// How many irregularities of any kind were counted.
+    pub fn total(&self) -> u64 {
+        self.gaps + self.duplicates + self.backwards + self.non_finite + self.reanchors
+    }
+
+    /// The counts as the CLI's warning line says them.
+    pub fn describe(&self) -> String {
+        let mut text = format!(
+            "{} gaps, {} duplicate and {} backwards stamps, {} non-finite values (left out and counted)",
+            self.gaps, self.duplicates, self.backwards, self.non_finite
+        );
+        if self.reanchors > 0 {
+            text += &format!(
+                "; the clock went back {} times ({REANCHOR_AFTER} backwards stamps in a row): \
+                 re-anchored on the new stamps",
+                self.reanchors
+            );
+        }
+        text
+    }
+}
+
+/// The run of backwards stamps after one more at `stamp_ns` ([`REANCHOR_AFTER`]): it grows when the
+/// stamp is later than the run's last one, and starts again at 1 otherwise.
+pub fn backwards_run(run: (u32, Option<i64>), stamp_ns: i64) -> (u32, Option<i64>) {
+    match run {
+        (n, Some(last)) if stamp_ns > last => (n + 1, Some(stamp_ns)),
+        _ => (1, Some(stamp_ns)),
+    }
 }
 
 /// Classifies each stamp against the previous accepted one.
@@ -171,6 +238,9 @@ pub struct Irregularities {
 pub struct StampCheck {
     period_ns: f64,
     last_ns: Option<i64>,
+    /// Backwards stamps in a row since the last accepted one, each later than the one before, and
+    /// the last of them.
+    backwards_run: (u32, Option<i64>),
     counts: Irregularities,
 }
 
@@ -180,11 +250,14 @@ impl StampCheck {
         StampCheck {
             period_ns: period_s * 1e9,
             last_ns: None,
+            backwards_run: (0, None),
             counts: Irregularities::default(),
         }
     }
 
-    /// Classifies `stamp_ns`, counts it, and remembers it unless it was a duplicate or went backwards.
+    /// Classifies `stamp_ns`, counts it, and remembers it unless it was a duplicate or went
+    /// backwards; the [`REANCHOR_AFTER`]th backwards stamp in a row is remembered as the new
+    /// reference ([`StampClass::Reanchored`]).
     pub fn check(&mut self, stamp_ns: i64) -> StampClass {
         let Some(last) = self.last_ns else {
             self.last_ns = Some(stamp_ns);
@@ -207,12 +280,28 @@ impl StampCheck {
         };
         match class {
             StampClass::Duplicate => self.counts.duplicates += 1,
-            StampClass::Backwards => self.counts.backwards += 1,
+            StampClass::Backwards => {
+                self.backwards_run = backwards_run(self.backwards_run, stamp_ns);
+                if self.backwards_run.0 >= REANCHOR_AFTER {
+                    self.counts.reanchors += 1;
+                    self.backwards_run = (0, None);
+                    self.last_ns = Some(stamp_ns);
+                    return StampClass::Reanchored {
+                        dropped: u64::from(REANCHOR_AFTER - 1),
+                    };
+                }
+                self.counts.backwards += 1;
+            }
             StampClass::Gap { .. } => {
                 self.counts.gaps += 1;
+                self.backwards_run = (0, None);
                 self.last_ns = Some(stamp_ns);
             }
-            StampClass::Next => self.last_ns = Some(stamp_ns),
+            StampClass::Next => {
+                self.backwards_run = (0, None);
+                self.last_ns = Some(stamp_ns);
+            }
+            StampClass::Reanchored { .. } => unreachable!("not a comparison result"),
         }
         class
     }

@@ -9,7 +9,7 @@
 //! 500 000-line file must be able to find the problem.
 
 use std::fmt;
-use std::io::BufRead;
+use std::io::{BufRead, Read};
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
@@ -42,6 +42,15 @@ impl fmt::Display for ColumnSelector {
     }
 }
 
+/// Longest line read, bytes (a CSV row of an IMU logger is a few hundred): a longer one is an
+/// error, so that a file without line breaks (`/dev/zero`, a binary file) cannot be read into
+/// memory without end (issue 13).
+pub const MAX_LINE_BYTES: usize = 64 * 1024;
+
+/// Most values read from one file: 2²⁶ (512 MiB as f64; 46 h at 400 Hz). The series is held in
+/// memory, so an endless input (`yes 1 |`) stops with an error here instead of exhausting it.
+pub const MAX_VALUES: usize = 1 << 26;
+
 /// Why a series could not be read.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -63,6 +72,24 @@ pub enum TextError {
         line: usize,
         /// The offending field.
         text: String,
+    },
+    /// A line longer than [`MAX_LINE_BYTES`]: not a text series.
+    #[error("{path}:{line}: line longer than {max} bytes: not a text series (one value per line, or CSV)")]
+    LineTooLong {
+        /// The file.
+        path: PathBuf,
+        /// One-based line number.
+        line: usize,
+        /// [`MAX_LINE_BYTES`].
+        max: usize,
+    },
+    /// More than [`MAX_VALUES`] values.
+    #[error("{path}: more than {max} values; split the file")]
+    TooManyValues {
+        /// The file.
+        path: PathBuf,
+        /// [`MAX_VALUES`].
+        max: usize,
     },
     /// A row has fewer fields than the selected column needs.
     #[error("{path}:{line}: no column {column} (the row has {fields} fields)")]
@@ -131,11 +158,34 @@ pub fn parse_column<R: BufRead>(
         _ => None,
     };
     let mut seen_data = false;
-    for (n, line) in reader.lines().enumerate() {
-        let line_no = n + 1;
-        let line = line.map_err(|source| TextError::Io {
-            path: path.to_path_buf(),
-            source,
+    let mut reader = reader;
+    let mut buf = Vec::new();
+    let io = |source| TextError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    for line_no in 1.. {
+        buf.clear();
+        let limit = (MAX_LINE_BYTES + 1) as u64;
+        let n = (&mut reader)
+            .take(limit)
+            .read_until(b'\n', &mut buf)
+            .map_err(io)?;
+        if n == 0 {
+            break;
+        }
+        if buf.last() != Some(&b'\n') && n as u64 == limit {
+            return Err(TextError::LineTooLong {
+                path: path.to_path_buf(),
+                line: line_no,
+                max: MAX_LINE_BYTES,
+            });
+        }
+        let line = std::str::from_utf8(&buf).map_err(|e| {
+            io(std::io::Error::new(
+                std::io::ErrorKind::InvalidData,
+                format!("line {line_no}: {e}"),
+            ))
         })?;
         let text = line.trim();
         if text.is_empty() || text.starts_with('#') {
@@ -181,6 +231,12 @@ pub fn parse_column<R: BufRead>(
             }
         };
         match field.trim().parse::<f64>() {
+            Ok(_) if values.len() == MAX_VALUES => {
+                return Err(TextError::TooManyValues {
+                    path: path.to_path_buf(),
+                    max: MAX_VALUES,
+                })
+            }
             Ok(v) => values.push(v),
             // A non-numeric first row of a CSV is its header.
             Err(_) if first_data && column.is_some() => continue,

@@ -7,8 +7,8 @@ is bounded by a deadline.
 Scenarios:
   diagnostics  publish sensor_msgs/Imu at 200 Hz, receive /diagnostics (+ typed ~/gyro_x/state when
                fdavar_msgs is importable), see the node in the graph.
-  params       list, set (valid and invalid) and get the node's parameters through the
-               rcl_interfaces services, as `ros2 param list/set/get` do.
+  params       list, set (valid, invalid and out of the DAVAR bounds) and get the node's
+               parameters through the rcl_interfaces services, as `ros2 param list/set/get` do.
   sim_time     publish rosgraph_msgs/Clock on /clock and see the node's /diagnostics stamps follow it.
   bad_input    publish NaN, backwards, duplicate and zero stamps, a gap, then go silent; the node
                must count each kind and report stale input as ERROR.
@@ -262,6 +262,19 @@ def scenario_params(peer):
     if not ok:
         finish(False, "DAVAR parameter changes not as expected", names=names,
                results=results, davar=davar, window_min=wmin, sigma_ref_mode=mode, after=after)
+    # Issue 13: values that panicked the spin thread (window.max 2^63-1: capacity overflow, later
+    # calls timed out) or froze the analysis while answered "successful" (tau0 1e-300) are refused
+    # with the bound; the node goes on answering (below) and publishing (the window change below).
+    req = SetParameters.Request(parameters=[param("window.max", 9223372036854775807),
+                                            param("tau0", 1e-300)])
+    r = peer.call(SetParameters, f"{NODE}/set_parameters", req)
+    bounds = [(x.successful, x.reason) for x in r.results] if r else []
+    wmax = get("window.max")
+    ok = (len(bounds) == 2 and not bounds[0][0] and "'window.max'" in bounds[0][1]
+          and "[3, 50001]" in bounds[0][1] and not bounds[1][0] and "'tau0'" in bounds[1][1]
+          and wmax is not None and wmax.integer_value == 501)
+    if not ok:
+        finish(False, "out-of-bounds DAVAR values not refused as expected", bounds=bounds)
     # A live window change reconfigures the running analysis: a fixed window of 301 samples.
     if not peer.wait_for_match():
         finish(False, "imu subscription never matched")
@@ -275,7 +288,7 @@ def scenario_params(peer):
     w = kv(status(peer.diagnostics[-1], "gyro_x"), "window_length") if peer.diagnostics else None
     ok = live == [(True, ""), (True, "")] and w == "301"
     finish(ok, "" if ok else "live window change did not reach the analysis", davar=davar,
-           results=results, live=live, window_length=w)
+           results=results, live=live, window_length=w, bounds=bounds)
 
 
 def scenario_sim_time(peer):

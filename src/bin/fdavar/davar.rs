@@ -172,12 +172,8 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     events.append(&mut out.events);
     printer.end(&pipeline, &events).context("writing output")?;
     let counts = pipeline.irregularities();
-    let irregular = counts.gaps + counts.duplicates + counts.backwards + counts.non_finite;
-    if irregular > 0 {
-        eprintln!(
-            "fdavar: warning: {} gaps, {} duplicate and {} backwards stamps, {} non-finite values (left out and counted)",
-            counts.gaps, counts.duplicates, counts.backwards, counts.non_finite
-        );
+    if counts.total() > 0 {
+        eprintln!("fdavar: warning: {}", counts.describe());
         return Ok(Outcome::Warnings);
     }
     Ok(Outcome::Ok)
@@ -315,7 +311,13 @@ impl<W: Write> Printer<W> {
 
 fn validate(args: &Args) -> anyhow::Result<RunConfig> {
     let mut config = match &args.params {
+        // A value the parameter table refuses is a usage error (exit 2, issue 13); an unreadable
+        // file is not.
         Some(path) => fdavar::params::load(path)
+            .map_err(|e| match e {
+                fdavar::params::ParamsError::Io { .. } => anyhow::Error::new(e),
+                other => anyhow::Error::new(crate::UsageError(other.to_string())),
+            })
             .with_context(|| format!("invalid parameters in {}", path.display()))?,
         None => DavarConfig::default(),
     };
@@ -327,6 +329,27 @@ fn validate(args: &Args) -> anyhow::Result<RunConfig> {
         let bag = fdavar::bag::BagReader::open(&path)
             .with_context(|| format!("cannot open bag {}", path.display()))?;
         let topic = bag.imu_topic(args.topic.as_deref())?.name.clone();
+        if let Some(tau0) = config.tau0 {
+            // A given tau0 must fit the stamps (issue 13): their median interval over the first
+            // PERIOD_SETTLE intervals, as the pipeline would learn it.
+            let mut stamps = Vec::new();
+            for message in bag.messages(&topic, None)? {
+                if let fdavar::bag::BagMessage::Imu { sample, .. } = message? {
+                    stamps.push(sample.stamp_ns);
+                    if stamps.len() > fdavar::pipeline::PERIOD_SETTLE {
+                        break;
+                    }
+                }
+            }
+            if let Some(measured) = fdavar::signal::nominal_period(&stamps) {
+                fdavar::params::check_tau0_against_period(tau0, measured)
+                    .map_err(|e| crate::UsageError(e.to_string()))
+                    .with_context(|| match &args.params {
+                        Some(p) => format!("invalid parameters in {}", p.display()),
+                        None => "invalid parameters".to_string(),
+                    })?;
+            }
+        }
         let axes = args.axis.map_or_else(|| Axis::ALL.to_vec(), |a| vec![a]);
         return Ok(RunConfig {
             config,
@@ -338,6 +361,11 @@ fn validate(args: &Args) -> anyhow::Result<RunConfig> {
         if !(rate > 0.0 && rate.is_finite()) {
             bail!("--rate must be a positive number of Hz, got {rate}");
         }
+        // The same range as the tau0 parameter.
+        fdavar::params::spec("tau0")
+            .expect("tau0 is a parameter")
+            .check(&fdavar::params::ParamValue::Float(1.0 / rate))
+            .map_err(|e| crate::UsageError(format!("--rate {rate}: {e}")))?;
         config.tau0 = Some(1.0 / rate);
     }
     let tau0 = config.tau0.context(

@@ -130,12 +130,9 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
 /// model alone is the finding, not a fault (exit 0).
 pub fn outcome(analysis: &Analysis, fits: &[FittedModel], strict: bool, hint: &str) -> Outcome {
     let irr = analysis.irregularities();
-    let irregular = irr.gaps + irr.duplicates + irr.backwards + irr.non_finite;
+    let irregular = irr.total();
     if irregular > 0 {
-        eprintln!(
-            "fdavar: warning: {} gaps, {} duplicate and {} backwards stamps, {} non-finite values (left out and counted)",
-            irr.gaps, irr.duplicates, irr.backwards, irr.non_finite
-        );
+        eprintln!("fdavar: warning: {}", irr.describe());
     }
     let failing: Vec<String> = fits
         .iter()

@@ -133,7 +133,7 @@ fn imu_report(bag: &BagReader, topic: &TopicInfo) -> anyhow::Result<ImuReport> {
             hi = hi.max(sample.stamp_ns);
             check.check(sample.stamp_ns);
             for v in sample.values() {
-                if !v.is_finite() {
+                if !fdavar::signal::is_usable(v) {
                     check.count_non_finite();
                 }
             }
@@ -216,6 +216,13 @@ fn print_text(out: &mut impl Write, r: &Report) -> std::io::Result<()> {
             "  gaps {}, duplicated stamps {}, backward stamps {}, non-finite values {}",
             n.gaps, n.duplicates, n.backwards, n.non_finite
         )?;
+        if n.reanchors > 0 {
+            writeln!(
+                out,
+                "  the clock went back {} times (50 backward stamps in a row: re-anchored)",
+                n.reanchors
+            )?;
+        }
     }
     Ok(())
 }

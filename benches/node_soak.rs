@@ -1,0 +1,554 @@
+//! Soak benchmark of `fdavar_node`: a long recording replayed faster than real time; the node's
+//! memory over the run, and its final whole-run answer against `fdavar diagnose` on the recording.
+//!
+//! ```text
+//! cargo bench --bench node_soak -- dds [HOURS] [DIAGNOSIS_PERIOD_S] [RATE]
+//! cargo bench --bench node_soak -- in-process [HOURS] [DIAGNOSIS_PERIOD_S]
+//! ```
+//! (defaults: 24 h, a diagnosis round every 1800 s of recording time, `--rate 100`).
+//!
+//! `dds`: `fdavar simulate` writes HOURS of bags/specs/clean.yaml at 100 Hz (MCAP); `fdavar play
+//! --clock --reliable` replays it into the release `fdavar_node` on sim time (ROS_DOMAIN_ID 86). Every
+//! wall second the bench reads the node's VmRSS (/proc/PID/status) and the `samples` count of its
+//! `/diagnostics`, and prints the RSS at each recorded hour. After the replay it publishes one
+//! `/clock` a diagnosis period past the last one, so that a last round diagnoses every message;
+//! then for each axis the published `model`, `fit_error`, every coefficient and `suggestions` must
+//! equal `fdavar diagnose BAG --json --first N --axis A` (N: the node's `diagnosed_messages`),
+//! exactly (/diagnostics carries each f64 in full, `{}` formatting).
+//!
+//! `in-process`: the node's engine and monitor (`AnalysisEngine` + `Monitor`, what the node's
+//! analysis thread runs) fed HOURS of white noise + random walk at 100 Hz from this process, a
+//! report every recorded second; the RSS is this process's. No DDS, no bag: the memory curve of
+//! the analysis alone, in a few minutes.
+//!
+//! Flat means: the RSS at the end exceeds the RSS at 6 h (past the whole-run record's cap of 2²¹
+//! samples per axis, 5.8 h at 100 Hz) by less than 5 %. The bench exits 1 when memory is not flat
+//! or live ≠ offline. Numbers depend on the machine; the run takes about 30 min for 24 h (`dds`).
+
+use fdavar::msgs::builtin_interfaces::Time;
+use fdavar::msgs::diagnostic_msgs::DiagnosticArray;
+use fdavar::msgs::rosgraph_msgs::Clock;
+use fdavar::ros::node::{publish_on, subscribe_on};
+use ros2_client::qos::{History, WhenFull};
+use ros2_client::{Context, ContextOptions, NodeName, NodeOptions, QosProfile};
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+const DOMAIN: u16 = 86;
+const RATE_HZ: u64 = 100;
+const AXES: [&str; 6] = [
+    "gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z",
+];
+
+/// VmRSS of a process, MB.
+fn rss_mb(pid: &str) -> Option<f64> {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
+}
+
+/// Memory samples (messages seen, RSS MB) over a run, printed per recorded hour.
+#[derive(Default)]
+struct Curve {
+    points: Vec<(u64, f64)>,
+    next_hour: u64,
+}
+
+impl Curve {
+    fn add(&mut self, messages: u64, rss: f64, elapsed_s: f64) {
+        self.points.push((messages, rss));
+        let per_hour = 3600 * RATE_HZ;
+        while messages >= self.next_hour * per_hour {
+            if self.next_hour > 0 {
+                println!(
+                    "  {:>2} h: {:>9} messages, RSS {rss:7.1} MB  ({elapsed_s:.0} s wall)",
+                    self.next_hour, messages
+                );
+            }
+            self.next_hour += 1;
+        }
+    }
+
+    /// The RSS when `messages` had been seen (the first sample at or after it).
+    fn at(&self, messages: u64) -> Option<f64> {
+        self.points.iter().find(|p| p.0 >= messages).map(|p| p.1)
+    }
+
+    /// Prints the figure; true when flat.
+    fn verdict(&self, total: u64) -> bool {
+        let six_h = 6 * 3600 * RATE_HZ;
+        let end = self.points.last().map_or(f64::NAN, |p| p.1);
+        let max_after = self
+            .points
+            .iter()
+            .filter(|p| p.0 >= six_h)
+            .map(|p| p.1)
+            .fold(f64::NAN, f64::max);
+        let max_all = self.points.iter().map(|p| p.1).fold(f64::NAN, f64::max);
+        match self.at(six_h).filter(|_| total > six_h) {
+            Some(at6) => {
+                let growth = 100.0 * (end / at6 - 1.0);
+                let flat = growth < 5.0;
+                println!(
+                    "RSS at 6 h {at6:.1} MB, at the end ({} h) {end:.1} MB: {growth:+.1} % \
+                     (flat: < 5 %: {}); max after 6 h {max_after:.1} MB, max overall {max_all:.1} MB",
+                    total / (3600 * RATE_HZ),
+                    if flat { "yes" } else { "NO" }
+                );
+                flat
+            }
+            None => {
+                println!("RSS at the end {end:.1} MB, max {max_all:.1} MB (too short for the 6 h figure)");
+                true
+            }
+        }
+    }
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with("--"))
+        .collect();
+    let mode = args.first().map_or("dds", String::as_str);
+    let hours: f64 = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(24.0);
+    let period_s: f64 = args.get(2).and_then(|a| a.parse().ok()).unwrap_or(1800.0);
+    let ok = match mode {
+        "dds" => {
+            let rate: f64 = args.get(3).and_then(|a| a.parse().ok()).unwrap_or(100.0);
+            dds(hours, period_s, rate)
+        }
+        "in-process" => in_process(hours, period_s),
+        other => {
+            eprintln!("node_soak: unknown mode {other:?} (dds or in-process)");
+            false
+        }
+    };
+    if !ok {
+        std::process::exit(1);
+    }
+}
+
+/// The node's engine and monitor in this process (see the module doc).
+fn in_process(hours: f64, period_s: f64) -> bool {
+    use fdavar::model::ModelSpec;
+    use fdavar::ros::engine::AnalysisEngine;
+    use fdavar::ros::monitor::{Monitor, MonitorSettings};
+    use fdavar::signal::ImuSample;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+
+    let config = fdavar::params::config_from_params(&Default::default()).unwrap();
+    let engine = AnalysisEngine::new(
+        config,
+        ModelSpec::parse("N,B,K").unwrap(),
+        Default::default(),
+    )
+    .unwrap();
+    let settings = MonitorSettings {
+        diagnosis_period_s: period_s,
+        stale_timeout_s: 10.0,
+        ..MonitorSettings::default()
+    };
+    let mut monitor = Monitor::new(settings, Some(Box::new(engine)));
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(24);
+    let normal = Normal::new(0.0, 1.0).unwrap();
+    let total = (hours * 3600.0) as u64 * RATE_HZ;
+    let pid = std::process::id().to_string();
+    let mut curve = Curve::default();
+    let mut walk = [0.0; 6];
+    let start = Instant::now();
+    println!(
+        "in-process engine + monitor: {hours} h at {RATE_HZ} Hz, diagnosis every {period_s} s"
+    );
+    for k in 0..total {
+        let mut v = [0.0; 6];
+        for (x, w) in v.iter_mut().zip(walk.iter_mut()) {
+            *w += 1e-5 * normal.sample(&mut rng);
+            *x = 1e-3 * normal.sample(&mut rng) + *w;
+        }
+        let stamp_ns = 1_700_000_000_000_000_000 + (k * 1_000_000_000 / RATE_HZ) as i64;
+        let sample = ImuSample {
+            stamp_ns,
+            gyro: [v[0], v[1], v[2]],
+            accel: [v[3], v[4], v[5]],
+        };
+        monitor.push(sample, "imu_link", stamp_ns);
+        if (k + 1) % RATE_HZ == 0 {
+            monitor.report(stamp_ns);
+        }
+        if (k + 1) % (60 * RATE_HZ) == 0 || k + 1 == total {
+            let rss = rss_mb(&pid).unwrap_or(f64::NAN);
+            curve.add(k + 1, rss, start.elapsed().as_secs_f64());
+        }
+    }
+    let wall = start.elapsed().as_secs_f64();
+    println!(
+        "{total} messages in {wall:.1} s wall ({:.0}× real time)",
+        total as f64 / RATE_HZ as f64 / wall
+    );
+    curve.verdict(total)
+}
+
+/// `fdavar play` into `fdavar_node` over DDS (see the module doc).
+fn dds(hours: f64, period_s: f64, rate: f64) -> bool {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let bag = dir.path().join("soak");
+    let total = (hours * 3600.0) as u64 * RATE_HZ;
+    let spec = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/bags/specs/clean.yaml"
+    ))
+    .expect("bags/specs/clean.yaml")
+    .replace(
+        "duration_s: 120",
+        &format!("duration_s: {}", total / RATE_HZ),
+    );
+    let spec_path = dir.path().join("soak.yaml");
+    std::fs::write(&spec_path, spec).unwrap();
+    let t0 = Instant::now();
+    let made = Command::new(env!("CARGO_BIN_EXE_fdavar"))
+        .args([
+            "simulate",
+            spec_path.to_str().unwrap(),
+            "--out",
+            bag.to_str().unwrap(),
+        ])
+        .output()
+        .expect("run fdavar simulate");
+    assert!(
+        made.status.success(),
+        "{}",
+        String::from_utf8_lossy(&made.stderr)
+    );
+    println!(
+        "simulated {hours} h at {RATE_HZ} Hz ({total} messages) in {:.1} s",
+        t0.elapsed().as_secs_f64()
+    );
+
+    let diagnosis = format!("diagnosis_period_s:={period_s:?}");
+    // The forced last round comes one period after the last /clock: not stale by then (the
+    // longest stale_timeout_s the node takes is 3600 s).
+    assert!(
+        period_s <= 3000.0,
+        "DIAGNOSIS_PERIOD_S must be at most 3000 s"
+    );
+    let stale = "stale_timeout_s:=3600.0";
+    let mut node = Command::new(env!("CARGO_BIN_EXE_fdavar_node"))
+        .args([
+            "--ros-args",
+            // bags/specs/clean.yaml records on /imu/data.
+            "-r",
+            "imu:=/imu/data",
+            "-p",
+            "use_sim_time:=true",
+            "-p",
+            "qos.reliable:=true",
+            "-p",
+            &diagnosis,
+            "-p",
+            "publish_rate_hz:=1.0",
+            "-p",
+            stale,
+            // A diagnosis of one axis of a full record takes about a second, while the replay
+            // goes on: room for 10 s of messages at 10 000 a second (preallocated: a constant).
+            "-p",
+            "queue_size:=100000",
+            // Keep last 100 (the default) loses messages whenever the receive thread is late by
+            // 100 (another process on the core): the replay must reach the node whole.
+            "-p",
+            "qos.depth:=10000",
+            "--log-level",
+            "warn",
+        ])
+        .env("ROS_DOMAIN_ID", DOMAIN.to_string())
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("start fdavar_node");
+    let pid = node.id().to_string();
+
+    let context = Context::with_options(ContextOptions::new().domain_id(DOMAIN)).expect("context");
+    let mut ros = context
+        .new_node(
+            NodeName::new("/", "fdavar_soak").unwrap(),
+            NodeOptions::new().enable_rosout(false),
+        )
+        .expect("node");
+    let diag_qos = QosProfile::publisher_default().history(History::KeepLast { depth: 10 });
+    let diagnostics =
+        subscribe_on::<DiagnosticArray>(&mut ros, "/diagnostics", &diag_qos).expect("subscription");
+    let clock_qos = QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::Wait(Duration::from_millis(100)))
+        .history(History::KeepLast { depth: 1 });
+    let clock_in = subscribe_on::<Clock>(&mut ros, "/clock", &clock_qos).expect("subscription");
+    let clock_out = publish_on::<Clock>(&mut ros, "/clock", &clock_qos).expect("publisher");
+    let spinner = ros.spinner().expect("spinner");
+    std::thread::spawn(move || futures::executor::block_on(spinner.spin()));
+
+    let start = Instant::now();
+    let mut player = Command::new(env!("CARGO_BIN_EXE_fdavar"))
+        .args([
+            "play",
+            bag.to_str().unwrap(),
+            "--clock",
+            "--reliable",
+            "--wait-s",
+            "30",
+        ])
+        .args([
+            "--rate",
+            &rate.to_string(),
+            "--domain-id",
+            &DOMAIN.to_string(),
+        ])
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start fdavar play");
+    println!("replaying with fdavar play --clock --reliable --rate {rate} into fdavar_node (diagnosis every {period_s} s):");
+
+    let mut last: Option<DiagnosticArray> = None;
+    let mut last_clock: Option<Time> = None;
+    let mut curve = Curve::default();
+    let drain = |last: &mut Option<DiagnosticArray>, last_clock: &mut Option<Time>| {
+        loop {
+            match diagnostics.take() {
+                Ok(Some((msg, _))) => *last = Some(msg),
+                Ok(None) => break,
+                Err(e) => {
+                    eprintln!("DEBUG diagnostics take: {e:?}");
+                    break;
+                }
+            }
+        }
+        while let Ok(Some((msg, _))) = clock_in.take() {
+            *last_clock = Some(msg.clock);
+        }
+    };
+    let samples = |a: &Option<DiagnosticArray>| -> u64 {
+        a.as_ref()
+            .and_then(|a| value(&a.status[0].values, "samples"))
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(0)
+    };
+    let played = loop {
+        std::thread::sleep(Duration::from_secs(1));
+        drain(&mut last, &mut last_clock);
+        curve.add(
+            samples(&last),
+            rss_mb(&pid).unwrap_or(f64::NAN),
+            start.elapsed().as_secs_f64(),
+        );
+        if let Some(status) = player.try_wait().expect("wait for fdavar play") {
+            break status;
+        }
+    };
+    let play_wall = start.elapsed().as_secs_f64();
+    let mut said = String::new();
+    std::io::Read::read_to_string(player.stderr.as_mut().unwrap(), &mut said).unwrap();
+    // Exit 3: finished with warnings (here the bag's temperature topic, which it does not play).
+    assert!(matches!(played.code(), Some(0 | 3)), "fdavar play: {said}");
+
+    // Every message analysed, then one /clock a period later: a last round over all of them.
+    let by = Instant::now() + Duration::from_secs(120);
+    while samples(&last) < total && Instant::now() < by {
+        std::thread::sleep(Duration::from_secs(1));
+        drain(&mut last, &mut last_clock);
+    }
+    let end_clock = last_clock.map_or(0, Time::to_ns) + (period_s * 1e9) as i64 + 1_000_000_000;
+    for _ in 0..3 {
+        // The node's /clock reader is best effort: say it more than once.
+        let _ = clock_out.publish(Clock {
+            clock: Time::from_ns(end_clock).unwrap(),
+        });
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    let diagnosed = |a: &DiagnosticArray, i: usize| -> u64 {
+        value(&a.status[i].values, "diagnosed_messages")
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(0)
+    };
+    let by = Instant::now() + Duration::from_secs(120);
+    while Instant::now() < by
+        && !last
+            .as_ref()
+            .is_some_and(|a| (0..6).all(|i| diagnosed(a, i) == total))
+    {
+        std::thread::sleep(Duration::from_secs(1));
+        drain(&mut last, &mut last_clock);
+    }
+    curve.add(
+        samples(&last),
+        rss_mb(&pid).unwrap_or(f64::NAN),
+        start.elapsed().as_secs_f64(),
+    );
+    let hwm = std::fs::read_to_string(format!("/proc/{pid}/status"))
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .map(str::to_string)
+        })
+        .unwrap_or_default();
+    let _ = node.kill();
+    let _ = node.wait();
+
+    let array = last.expect("no /diagnostics received");
+    let drops = value(&array.status[0].values, "drops")
+        .unwrap_or("?")
+        .to_string();
+    println!(
+        "{} in {play_wall:.0} s wall ({:.1}× real time); node counted {} samples, {drops} \
+         drops; node peak {hwm}",
+        said.lines()
+            .find(|l| l.contains(" IMU "))
+            .unwrap_or("")
+            .trim(),
+        total as f64 / RATE_HZ as f64 / play_wall,
+        samples(&Some(array.clone())),
+    );
+    let flat = curve.verdict(total);
+
+    let mut equal = true;
+    for (i, axis) in AXES.iter().enumerate() {
+        let status = &array.status[i];
+        let n = diagnosed(&array, i);
+        let offline = offline(&bag, n, axis);
+        let differences = compare(&status.values, &offline);
+        println!(
+            "{axis}: diagnosed_messages {n}, fit_error live {} offline {}, {} coefficients: {}",
+            value(&status.values, "fit_error").unwrap_or("?"),
+            offline["fit_error"].as_str().unwrap_or("?"),
+            offline["coefficients"].as_object().map_or(0, |c| c
+                .values()
+                .map(|e| e.as_object().map_or(0, |e| e.len()))
+                .sum()),
+            if differences.is_empty() {
+                "live = offline".to_string()
+            } else {
+                differences.join("; ")
+            }
+        );
+        equal &= differences.is_empty() && n == total;
+    }
+    flat && equal
+}
+
+fn value<'a>(values: &'a [fdavar::msgs::diagnostic_msgs::KeyValue], key: &str) -> Option<&'a str> {
+    values
+        .iter()
+        .find(|kv| kv.key == key)
+        .map(|kv| kv.value.as_str())
+}
+
+/// `fdavar diagnose BAG --json --first N --axis AXIS`: the axis's JSON.
+fn offline(bag: &Path, first: u64, axis: &str) -> serde_json::Value {
+    let out = Command::new(env!("CARGO_BIN_EXE_fdavar"))
+        .args([
+            "diagnose",
+            bag.to_str().unwrap(),
+            "--json",
+            "--first",
+            &first.to_string(),
+        ])
+        .args(["--axis", axis])
+        .output()
+        .expect("run fdavar diagnose");
+    // Exit 3 (warnings: a failing fit) still prints the answer.
+    assert!(
+        matches!(out.status.code(), Some(0 | 3)),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).expect("UTF-8 JSON");
+    let v: serde_json::Value =
+        serde_json::from_str(&numbers_as_strings(&text)).expect("fdavar diagnose --json");
+    v["axes"][0].clone()
+}
+
+/// JSON text with every number turned into a string holding its text, so that it is parsed by
+/// `str::parse::<f64>` (correctly rounded) rather than by serde_json's default float parser,
+/// which may miss the nearest f64 by one ulp (its `float_roundtrip` feature is off).
+fn numbers_as_strings(json: &str) -> String {
+    let mut out = String::with_capacity(json.len() + 64);
+    let (mut in_string, mut escaped, mut in_number) = (false, false, false);
+    for c in json.chars() {
+        if in_number && !matches!(c, '0'..='9' | '-' | '+' | '.' | 'e' | 'E') {
+            out.push('"');
+            in_number = false;
+        }
+        if in_string {
+            let was_escaped = escaped;
+            escaped = !was_escaped && c == '\\';
+            in_string = was_escaped || c != '"';
+        } else if c == '"' {
+            in_string = true;
+        } else if !in_number && matches!(c, '0'..='9' | '-') {
+            out.push('"');
+            in_number = true;
+        }
+        out.push(c);
+    }
+    if in_number {
+        out.push('"');
+    }
+    out
+}
+
+/// Where the node's `/diagnostics` status and the offline JSON differ (none when equal); f64
+/// values are compared exactly.
+fn compare(
+    live: &[fdavar::msgs::diagnostic_msgs::KeyValue],
+    offline: &serde_json::Value,
+) -> Vec<String> {
+    let mut differences = Vec::new();
+    let number = |s: &str| s.parse::<f64>().ok();
+    let live_fit = value(live, "fit_error").and_then(number);
+    if live_fit != offline["fit_error"].as_str().and_then(number) {
+        differences.push(format!(
+            "fit_error {live_fit:?} vs {}",
+            offline["fit_error"]
+        ));
+    }
+    let ids = |v: &serde_json::Value| -> Vec<String> {
+        v.as_array()
+            .map(|a| {
+                a.iter()
+                    .filter_map(|x| x.as_str().or(x["effect"].as_str()).map(str::to_string))
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    let split = |s: Option<&str>| -> Vec<String> {
+        s.filter(|s| !s.is_empty())
+            .map(|s| s.split(',').map(str::to_string).collect())
+            .unwrap_or_default()
+    };
+    for (key, json) in [("model", "model"), ("suggestions", "suggestions")] {
+        let (l, o) = (split(value(live, key)), ids(&offline[json]));
+        if l != o {
+            differences.push(format!("{key} {l:?} vs {o:?}"));
+        }
+    }
+    // Coefficients: "effect.name [unit]" (not ".sigma") against coefficients.effect.name.
+    let mut live_coefs = BTreeMap::new();
+    for kv in live {
+        if let Some((name, _unit)) = kv.key.split_once(" [") {
+            if !name.ends_with(".sigma") {
+                live_coefs.insert(name.to_string(), number(&kv.value));
+            }
+        }
+    }
+    let mut offline_coefs = BTreeMap::new();
+    for (effect, params) in offline["coefficients"].as_object().into_iter().flatten() {
+        for (name, v) in params.as_object().into_iter().flatten() {
+            offline_coefs.insert(format!("{effect}.{name}"), v.as_str().and_then(number));
+        }
+    }
+    if live_coefs != offline_coefs {
+        differences.push(format!("coefficients {live_coefs:?} vs {offline_coefs:?}"));
+    }
+    differences
+}

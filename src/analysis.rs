@@ -48,6 +48,14 @@ impl AnalysisConfig {
             max_samples: RecordBuilder::DEFAULT_MAX_SAMPLES,
         }
     }
+
+    /// This configuration with F-DAVAR rows on `davar`, the whole run placed on the grid of the
+    /// same τ0 as the rows (what the node runs, and `fdavar fit/diagnose --mcap`).
+    pub fn with_rows(mut self, davar: DavarConfig) -> AnalysisConfig {
+        self.tau0 = davar.tau0;
+        self.davar = Some(davar);
+        self
+    }
 }
 
 /// Why an analysis question has no answer.

@@ -45,10 +45,7 @@ impl AnalysisEngine {
         global: ModelSpec,
         overrides: [Option<ModelSpec>; 6],
     ) -> Result<AnalysisEngine, PipelineError> {
-        let mut analysis_config = AnalysisConfig::whole_run(&global);
-        // The whole run is placed on the grid of the configured τ0, as the rows are.
-        analysis_config.tau0 = config.tau0;
-        analysis_config.davar = Some(config);
+        let mut analysis_config = AnalysisConfig::whole_run(&global).with_rows(config);
         for axis in Axis::ALL {
             if let Some(m) = &overrides[axis.index()] {
                 analysis_config.models[axis.index()] = m.clone();

@@ -148,7 +148,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let mut printer = Printer {
         w: BufWriter::new(stdout.lock()),
         format,
-        every: args.every,
+        thinning: Thinning::new(args.every),
         printed: 0,
         axes: BTreeMap::new(),
     };
@@ -186,12 +186,33 @@ enum Format {
     Summary,
 }
 
+/// `--every SECONDS`: keeps the first row of each axis in each interval [k·SECONDS, (k+1)·SECONDS)
+/// of analysis time (also `--mcap-every` of `fdavar fit/diagnose`); `None` keeps every row.
+#[derive(Debug, Clone, Copy)]
+pub struct Thinning {
+    every: Option<f64>,
+    last_slot: [Option<i64>; 6],
+}
+
+impl Thinning {
+    pub fn new(every: Option<f64>) -> Thinning {
+        Thinning { every, last_slot: [None; 6] }
+    }
+
+    /// Whether `r` is the first row of its axis in its interval.
+    pub fn keep(&mut self, r: &AxisRow) -> bool {
+        let Some(every) = self.every else {
+            return true;
+        };
+        let slot = Some((r.time_s / every).floor() as i64);
+        std::mem::replace(&mut self.last_slot[r.axis.index()], slot) != slot
+    }
+}
+
 /// Per-axis facts for the summary.
 #[derive(Debug, Clone, Copy)]
 struct AxisSummary {
     rows: u64,
-    /// The `--every` interval of the last printed row.
-    last_slot: Option<i64>,
     first_s: f64,
     last_s: f64,
     window_min: usize,
@@ -202,7 +223,7 @@ struct AxisSummary {
 struct Printer<W: Write> {
     w: W,
     format: Format,
-    every: Option<f64>,
+    thinning: Thinning,
     printed: u64,
     axes: BTreeMap<Axis, AxisSummary>,
 }
@@ -222,7 +243,6 @@ impl<W: Write> Printer<W> {
     fn row(&mut self, r: &AxisRow) -> std::io::Result<()> {
         let s = self.axes.entry(r.axis).or_insert(AxisSummary {
             rows: 0,
-            last_slot: None,
             first_s: r.time_s,
             last_s: r.time_s,
             window_min: r.row.window,
@@ -232,12 +252,8 @@ impl<W: Write> Printer<W> {
         s.last_s = r.time_s;
         s.window_min = s.window_min.min(r.row.window);
         s.window_max = s.window_max.max(r.row.window);
-        if let Some(every) = self.every {
-            let slot = (r.time_s / every).floor() as i64;
-            if s.last_slot == Some(slot) {
-                return Ok(());
-            }
-            s.last_slot = Some(slot);
+        if !self.thinning.keep(r) {
+            return Ok(());
         }
         match self.format {
             Format::Json => {

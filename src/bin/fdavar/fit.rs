@@ -4,6 +4,7 @@
 //! Also home of what `fdavar diagnose` shares: feeding the bag into a [`fdavar::analysis::Analysis`]
 //! (the node's analysis path), the text table, the figures and the results MCAP (`--mcap`).
 
+use crate::davar::Thinning;
 use crate::{Outcome, UsageError};
 use anyhow::Context;
 use fdavar::analysis::{Analysis, AnalysisConfig};
@@ -166,9 +167,8 @@ pub struct ResultsOut {
     path: PathBuf,
     davar: DavarConfig,
     axes: Vec<Axis>,
-    every: Option<f64>,
-    /// The `--mcap-every` slot of the latest row written, per axis.
-    last_slot: [Option<i64>; 6],
+    /// `--mcap-every`.
+    thinning: Thinning,
 }
 
 impl ResultsOut {
@@ -203,8 +203,7 @@ impl ResultsOut {
             path: path.clone(),
             davar,
             axes: common.axes(),
-            every: common.mcap_every,
-            last_slot: [None; 6],
+            thinning: Thinning::new(common.mcap_every),
         }))
     }
 
@@ -212,11 +211,8 @@ impl ResultsOut {
     fn write_rows(&mut self, analysis: &Analysis, rows: &[AxisRow]) -> anyhow::Result<()> {
         let tau0 = analysis.row_tau0().unwrap_or(f64::NAN);
         for row in rows.iter().filter(|r| self.axes.contains(&r.axis)) {
-            if let Some(every) = self.every {
-                let slot = Some((row.time_s / every).floor() as i64);
-                if std::mem::replace(&mut self.last_slot[row.axis.index()], slot) == slot {
-                    continue;
-                }
+            if !self.thinning.keep(row) {
+                continue;
             }
             let mut state = axis_state(row, tau0);
             state.samples = analysis.messages();
@@ -256,9 +252,8 @@ pub fn load(
     let mut config = AnalysisConfig::whole_run(&models[0]);
     config.models = models;
     if let Some(r) = &results {
-        // As the node (src/ros/engine.rs): the whole run on the grid of the configured τ0.
-        config.tau0 = r.davar.tau0;
-        config.davar = Some(r.davar.clone());
+        // As the node (src/ros/engine.rs).
+        config = config.with_rows(r.davar.clone());
     }
     let mut analysis = Analysis::new(config).context("cannot start the analysis")?;
     for msg in bag.messages(&imu_topic, temp_topic.as_deref())? {

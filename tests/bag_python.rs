@@ -8,38 +8,17 @@
 //! Python: `$FDAVAR_PYTHON` (default `<crate>/.venv/bin/python`) with .ci/python-bag.txt installed.
 //! Without it the tests print why and pass, unless `FDAVAR_REQUIRE_PYTHON=1` (CI).
 
+mod common;
+
 use fdavar::bag::{BagMessage, BagReader, BagWriter, ChunkCompression, WriterOptions};
 use fdavar::signal::{ImuSample, TemperatureSample};
 use rand::{Rng, SeedableRng};
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 const MODULES: &str = "import rosbags, mcap, mcap_ros2, numpy";
 
-/// The Python interpreter with the test modules, or None (after saying why) when tests may skip.
-fn python() -> Option<PathBuf> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let python = std::env::var_os("FDAVAR_PYTHON")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| root.join(".venv/bin/python"));
-    let ok = Command::new(&python).args(["-c", MODULES]).output();
-    let why = match ok {
-        Ok(out) if out.status.success() => return Some(python),
-        Ok(out) => format!(
-            "{}: {}",
-            python.display(),
-            String::from_utf8_lossy(&out.stderr).trim()
-        ),
-        Err(e) => format!("{}: {e}", python.display()),
-    };
-    let why = format!("{why} (pip install -r .ci/python-bag.txt into it, or set FDAVAR_PYTHON)");
-    if std::env::var("FDAVAR_REQUIRE_PYTHON").as_deref() == Ok("1") {
-        panic!("Python test tools required: {why}");
-    }
-    eprintln!("skipping: Python test tools missing: {why}");
-    None
-}
 
 fn run_script(python: &Path, script: &str, arg: &Path) -> String {
     let script = Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -65,7 +44,7 @@ fn u(v: &Value) -> u64 {
 
 #[test]
 fn reads_bags_written_by_independent_tools_exactly() {
-    let Some(python) = python() else { return };
+    let Some(python) = common::python_with(MODULES, ".ci/python-bag.txt") else { return };
     let dir = tempfile::tempdir().unwrap();
     run_script(&python, "make_bags.py", dir.path());
     let expected: Value =
@@ -176,7 +155,7 @@ fn samples(seed: u64, n: usize) -> (Logged<ImuSample>, Logged<TemperatureSample>
 
 #[test]
 fn independent_readers_read_fdavar_bags_exactly() {
-    let Some(python) = python() else { return };
+    let Some(python) = common::python_with(MODULES, ".ci/python-bag.txt") else { return };
     let dir = tempfile::tempdir().unwrap();
     for (k, compression) in [
         ChunkCompression::Zstd,

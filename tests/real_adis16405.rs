@@ -22,9 +22,13 @@ use std::path::PathBuf;
 const RATE_HZ: f64 = 100.0;
 const SAMPLES: usize = 360_000;
 
+/// The recording, or None after saying the test skips.
 fn recording() -> Option<PathBuf> {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/reference/real/adis16405_static_run1.csv.gz");
+    if !p.exists() {
+        println!("skipped: ../shared/reference/real/adis16405_static_run1.csv.gz is absent");
+    }
     p.exists().then_some(p)
 }
 
@@ -64,10 +68,7 @@ fn green_within_one_sigma(f: &FittedModel) -> f64 {
 
 #[test]
 fn adis16405_gyro_is_white_noise_through_its_low_pass() {
-    let Some(path) = recording() else {
-        println!("skipped: ../shared/reference/real/adis16405_static_run1.csv.gz is absent");
-        return;
-    };
+    let Some(path) = recording() else { return };
     let cols = read(&path);
     let opts = FitOptions::default();
     let base = ModelSpec::parse("N,B,K").unwrap();
@@ -101,10 +102,7 @@ fn adis16405_gyro_is_white_noise_through_its_low_pass() {
 /// measured; the line is a narrow band, not one sinusoid, which is why it is not lower).
 #[test]
 fn adis16405_gyro_z_is_the_low_pass_and_a_21_hz_line() {
-    let Some(path) = recording() else {
-        println!("skipped: ../shared/reference/real/adis16405_static_run1.csv.gz is absent");
-        return;
-    };
+    let Some(path) = recording() else { return };
     let cols = read(&path);
     let spec = ModelSpec::parse("B,K,bandwidth,sinusoid").unwrap();
     let f = fit(&input(Axis::GyroZ, &cols[2]), &spec, REGISTRY, &FitOptions::default()).unwrap();
@@ -136,10 +134,7 @@ fn adis16405_gyro_z_is_the_low_pass_and_a_21_hz_line() {
 /// 0.03–0.1 s) that the vocabulary's one sinusoid per axis cannot add.
 #[test]
 fn adis16405_accel_is_the_low_pass_and_a_0_56_hz_line() {
-    let Some(path) = recording() else {
-        println!("skipped: ../shared/reference/real/adis16405_static_run1.csv.gz is absent");
-        return;
-    };
+    let Some(path) = recording() else { return };
     let cols = read(&path);
     let opts = FitOptions::default();
     let base = ModelSpec::parse("N,B,K").unwrap();

@@ -8,9 +8,11 @@
 //! it the Python half prints why and passes, unless `FDAVAR_REQUIRE_PYTHON=1` (CI); fdavar's own
 //! reader checks the channels either way.
 
+mod common;
+
 use fdavar::bag::BagReader;
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 const AXES: [&str; 6] = [
@@ -21,30 +23,6 @@ fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// The Python interpreter with `mcap-ros2-support`, or None (after saying why) when tests may skip.
-fn python() -> Option<PathBuf> {
-    let python = std::env::var_os("FDAVAR_PYTHON")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| root().join(".venv/bin/python"));
-    let why = match Command::new(&python)
-        .args(["-c", "import mcap, mcap_ros2.decoder"])
-        .output()
-    {
-        Ok(out) if out.status.success() => return Some(python),
-        Ok(out) => format!(
-            "{}: {}",
-            python.display(),
-            String::from_utf8_lossy(&out.stderr).trim()
-        ),
-        Err(e) => format!("{}: {e}", python.display()),
-    };
-    let why = format!("{why} (pip install -r .ci/python-bag.txt into it, or set FDAVAR_PYTHON)");
-    if std::env::var("FDAVAR_REQUIRE_PYTHON").as_deref() == Ok("1") {
-        panic!("Python test tools required: {why}");
-    }
-    eprintln!("skipping the mcap-ros2-support half: {why}");
-    None
-}
 
 fn fdavar(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_fdavar"))
@@ -134,7 +112,7 @@ fn results_mcap_decodes_with_mcap_ros2_to_what_the_cli_prints() {
     let davar = json(&["davar", bag_s, "--json", "--every", "1"]);
     let davar_rows = davar["rows"].as_array().unwrap();
 
-    let Some(python) = python() else { return };
+    let Some(python) = common::python_with("import mcap, mcap_ros2.decoder", ".ci/python-bag.txt") else { return };
     let out = Command::new(&python)
         .arg(root().join("tests/py/read_results.py"))
         .arg(&mcap)

@@ -1441,9 +1441,9 @@ const LIVE_AXIS_MODEL: &str = "white,bias_instability,random_walk,sinusoid,noise
 /// Replays `bag` (`messages` IMU messages) with `fdavar play --clock` into the node on sim time,
 /// has the rclpy peer snapshot every axis's typed state at the end, after `model` and after
 /// `model.gyro_x` ([`LIVE_MODEL`], [`LIVE_AXIS_MODEL`]), and compares each snapshot with
-/// `fdavar diagnose` and `fdavar fit --first N` on the bag. Returns the peer's verdict and every
-/// difference found (none when live = offline).
-fn replay_and_compare(bag: &Path, messages: u64, domain: u16) -> (serde_json::Value, Vec<String>) {
+/// `fdavar diagnose` and `fdavar fit --first N` on the bag, failing on any difference. Returns
+/// the peer's verdict.
+fn replay_and_compare(bag: &Path, messages: u64, domain: u16) -> serde_json::Value {
     let py = python().expect("checked by the caller");
     let _node = start_node(
         domain,
@@ -1511,7 +1511,8 @@ fn replay_and_compare(bag: &Path, messages: u64, domain: u16) -> (serde_json::Va
     let args = ["--model", LIVE_MODEL, "--model", per_axis.as_str()];
     check("axis_model", "gyro_x", live, &offline_axis("diagnose", bag, messages, "gyro_x", &args));
     check("axis_model (fit)", "gyro_x", live, &offline_axis("fit", bag, messages, "gyro_x", &args));
-    (v, differences)
+    assert!(differences.is_empty(), "live ≠ offline:\n{}", differences.join("\n"));
+    v
 }
 
 #[test]
@@ -1533,8 +1534,7 @@ fn the_node_on_a_played_recording_publishes_what_fdavar_diagnose_says_and_refits
         .output()
         .unwrap();
     assert!(made.status.success(), "{}", String::from_utf8_lossy(&made.stderr));
-    let (v, differences) = replay_and_compare(&bag, 12_000, 77);
-    assert!(differences.is_empty(), "live ≠ offline:\n{}", differences.join("\n"));
+    let v = replay_and_compare(&bag, 12_000, 77);
 
     let first = |s: &serde_json::Value| s["suggestions"][0]["effect"].as_str().map(str::to_string);
     let (played, model, axis_model) = (&v["played"], &v["model"], &v["axis_model"]);
@@ -1580,8 +1580,7 @@ fn live_equals_offline_on_a_recording_with_nan_a_gap_and_a_backwards_stamp() {
         writer.write_imu("/imu", log, s, "imu_link").unwrap();
     }
     writer.finish().unwrap();
-    let (v, differences) = replay_and_compare(&bag, messages, 78);
-    assert!(differences.is_empty(), "live ≠ offline:\n{}", differences.join("\n"));
+    let v = replay_and_compare(&bag, messages, 78);
     // And says what it left out: 53 messages (NaN, Inf, 1e300, the backwards stamp, the 49
     // dropped before the re-anchor) not counted as samples; five holes in the series (the first
     // four and the 2 s gap; the re-anchor starts a new clock); no queue drops.

@@ -58,6 +58,11 @@ impl Drop for Killed {
     }
 }
 
+/// The node's reader history for replays that must arrive whole: reliable DDS with keep-last
+/// 100 (the default) drops a sample whenever the node's receive thread is 100 behind, which a
+/// loaded CI core causes (478 of 12 000 lost, measured with a soak next to the suite).
+const LOSSLESS_DEPTH: &str = "qos.depth:=10000";
+
 fn start_node(domain: u16, ros_args: &[&str]) -> Killed {
     let child = Command::new(env!("CARGO_BIN_EXE_fdavar_node"))
         .arg("--ros-args")
@@ -299,7 +304,7 @@ fn fdavar_play_replays_a_recording_into_the_node_without_loss() {
     writer.finish().unwrap();
     let _node = start_node(
         67,
-        &["-p", "qos.reliable:=true", "-p", "publish_rate_hz:=5.0"],
+        &["-p", "qos.reliable:=true", "-p", LOSSLESS_DEPTH, "-p", "publish_rate_hz:=5.0"],
     );
     let player = std::thread::spawn(move || {
         let out = Command::new(env!("CARGO_BIN_EXE_fdavar"))
@@ -506,6 +511,8 @@ fn a_played_recording_with_a_hidden_sinusoid_gets_sinusoid_suggested_over_dds() 
         &[
             "-p",
             "qos.reliable:=true",
+            "-p",
+            LOSSLESS_DEPTH,
             "-p",
             "publish_rate_hz:=10.0",
             "-p",
@@ -733,6 +740,8 @@ fn live_rows_equal_offline_rows_for_a_replayed_recording() {
             "-p",
             "qos.reliable:=true",
             "-p",
+            LOSSLESS_DEPTH,
+            "-p",
             "publish_rate_hz:=10.0",
             "-p",
             &dump_arg,
@@ -914,6 +923,8 @@ fn fdavar_play_clock_reaches_rclpy_and_drives_the_node_on_sim_time() {
             "-p",
             "qos.reliable:=true",
             "-p",
+            LOSSLESS_DEPTH,
+            "-p",
             "publish_rate_hz:=10.0",
             "-p",
             "stale_timeout_s:=60.0",
@@ -1084,6 +1095,8 @@ fn node_stops_cleanly_on(signal: &str, domain: u16, via_shell: bool) {
         "-p".into(),
         "qos.reliable:=true".into(),
         "-p".into(),
+        LOSSLESS_DEPTH.into(),
+        "-p".into(),
         "publish_rate_hz:=10.0".into(),
         "-p".into(),
         format!("dump_json:={}", dump.display()),
@@ -1191,6 +1204,8 @@ fn dump_json_stays_under_its_size_cap_and_keeps_the_newest_rows() {
         &[
             "-p",
             "qos.reliable:=true",
+            "-p",
+            LOSSLESS_DEPTH,
             "-p",
             "publish_rate_hz:=10.0",
             "-p",
@@ -1452,6 +1467,8 @@ fn replay_and_compare(bag: &Path, messages: u64, domain: u16) -> serde_json::Val
             "use_sim_time:=true",
             "-p",
             "qos.reliable:=true",
+            "-p",
+            LOSSLESS_DEPTH,
             "-p",
             "publish_rate_hz:=10.0",
             "-p",

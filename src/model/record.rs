@@ -117,7 +117,7 @@ pub struct RecordBuilder {
 
 impl RecordBuilder {
     /// Samples per axis kept at full rate before the record is halved (2²¹: 16 MB per axis).
-    pub const DEFAULT_MAX_SAMPLES: usize = 1 << 21;
+    pub const DEFAULT_MAX_SAMPLES: usize = crate::signal::MAX_GAP_SAMPLES as usize;
 
     /// A builder with period `tau0` (seconds; `None`: learned from the first stamps) that keeps
     /// at most `max_samples` (at least 1024) values per axis.
@@ -342,6 +342,31 @@ mod tests {
             gyro: [v; 3],
             accel: [v; 3],
         }
+    }
+
+    /// Issue 13: a forward clock jump longer than the record can lay out stopped the record for
+    /// the rest of the run ("gap too long"); now it re-anchors and the record keeps growing.
+    #[test]
+    fn a_forward_clock_jump_re_anchors_instead_of_stopping_the_record() {
+        let ms = 10_000_000;
+        let jump = (crate::signal::MAX_GAP_SAMPLES as i64 + 10) * ms;
+        let imu: Vec<ImuSample> = (0..2000)
+            .map(|k| sample(k * ms + if k >= 1000 { jump } else { 0 }, k as f64))
+            .collect();
+        let r = Recording::from_samples(&imu, &[]).unwrap();
+        assert_eq!(r.len(), 2000);
+        assert_eq!(r.axes[0][999..1001], [999.0, 1000.0]);
+        assert_eq!((r.irregularities.reanchors, r.irregularities.gaps), (1, 0));
+        // One period less is still a gap, laid out as missing samples.
+        let imu: Vec<ImuSample> = (0..20)
+            .map(|k| sample(k * ms + if k >= 10 { jump - 11 * ms } else { 0 }, k as f64))
+            .collect();
+        let r = Recording::from_samples(&imu, &[]).unwrap();
+        assert_eq!((r.irregularities.reanchors, r.irregularities.gaps), (0, 1));
+        // The 2²¹st sample fills the record, which is halved to 2²⁰; the last 19 follow in
+        // pairs (9, and one pending).
+        assert_eq!(r.len(), (crate::signal::MAX_GAP_SAMPLES as usize) / 2 + 9);
+        assert!((r.tau0 - 0.02).abs() < 1e-12);
     }
 
     #[test]

@@ -66,7 +66,8 @@ pub enum BadInput {
     NonFinite,
     /// A stamp earlier than the previous one.
     Backwards,
-    /// [`crate::signal::REANCHOR_AFTER`] backwards stamps in a row: the clock went back.
+    /// [`crate::signal::REANCHOR_AFTER`] backwards stamps in a row (the clock went back), or a
+    /// stamp more than [`crate::signal::MAX_GAP_SAMPLES`] periods ahead (it jumped forward).
     Reanchor,
     /// The same stamp as the previous one.
     Duplicate,
@@ -89,7 +90,8 @@ impl BadInput {
             }
             BadInput::Backwards => "IMU stamp went backwards: sample dropped",
             BadInput::Reanchor => {
-                "IMU clock went back: 50 backwards stamps in a row, re-anchored on the new stamps"
+                "IMU clock jumped (back: 50 backwards stamps in a row; or forward: past the \
+                 longest gap laid out), re-anchored on the new stamps"
             }
             BadInput::Duplicate => "duplicate IMU stamp: sample dropped",
             BadInput::ZeroStamp => "zero IMU header stamp in a stamped stream: sample dropped",
@@ -119,7 +121,7 @@ pub struct Counters {
     pub duplicates: u64,
     /// Stamps going backwards (dropped).
     pub backwards: u64,
-    /// Times the clock went back for good and the stamps were re-anchored.
+    /// Times the clock went back for good or jumped forward, and the stamps were re-anchored.
     pub reanchors: u64,
     /// Zero stamps (receive time used).
     pub zero_stamps: u64,
@@ -409,9 +411,19 @@ impl Monitor {
             self.check = Some(check);
         }
         if let Some(check) = self.check.as_mut() {
-            if let StampClass::Gap { .. } = check.check(sample.stamp_ns) {
-                self.counters.gaps += 1;
-                log.extend(self.note(BadInput::Gap));
+            match check.check(sample.stamp_ns) {
+                StampClass::Gap { .. } => {
+                    self.counters.gaps += 1;
+                    log.extend(self.note(BadInput::Gap));
+                }
+                StampClass::Reanchored { .. } => {
+                    // Forward past MAX_GAP_SAMPLES (a backwards re-anchor returned above).
+                    self.counters.reanchors += 1;
+                    self.recent_reanchor = true;
+                    log.extend(self.note(BadInput::Reanchor));
+                    self.rate_window = None;
+                }
+                _ => {}
             }
         }
         self.last_good_ns = Some(sample.stamp_ns);
@@ -571,7 +583,7 @@ impl Monitor {
                 } else if self.recent_reanchor {
                     (
                         Level::Warn,
-                        "IMU clock went back: stamps re-anchored".to_string(),
+                        "IMU clock jumped: stamps re-anchored".to_string(),
                     )
                 } else {
                     (Level::Ok, "ok".to_string())
@@ -718,10 +730,32 @@ mod tests {
         );
         let (a, _, _) = m.report(t + 2_000 * MS);
         assert_eq!(level(&a, 0), Level::Warn as u8, "{a:?}");
-        assert!(a.status[0].message.contains("clock went back"), "{a:?}");
+        assert!(a.status[0].message.contains("clock jumped"), "{a:?}");
         assert_eq!(value(&a, 0, "reanchors"), "1");
         let (a, _, _) = m.report(t + 2_000 * MS);
         assert_eq!(level(&a, 0), Level::Ok as u8, "one warning per re-anchor");
+    }
+
+    /// Issue 13: a clock that jumps forward further than the longest gap laid out (here 2²² periods,
+    /// 11.7 h at 100 Hz) re-anchors as one that went back: counted, WARN once, nothing dropped.
+    #[test]
+    fn a_clock_that_jumps_forward_re_anchors_with_a_warning() {
+        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(Echo)));
+        let mut t = 1_000 * MS;
+        for _ in 0..100 {
+            t += 10 * MS;
+            m.push(sample(t, 0.1), "imu", t);
+        }
+        t += (1 << 22) * 10 * MS;
+        for _ in 0..100 {
+            t += 10 * MS;
+            m.push(sample(t, 0.1), "imu", t);
+        }
+        let c = m.counters();
+        assert_eq!((c.reanchors, c.gaps, c.backwards, c.samples), (1, 0, 0, 200));
+        let (a, _, _) = m.report(t);
+        assert_eq!(level(&a, 0), Level::Warn as u8, "{a:?}");
+        assert!(a.status[0].message.contains("clock jumped"), "{a:?}");
     }
 
     /// Issue 13: ±1e300 values count as dropped values (WARN), like NaN.

@@ -145,6 +145,17 @@ pub struct TemperatureSample {
 /// for the rest of the run (issue 13). The 49 samples dropped while deciding become a gap.
 pub const REANCHOR_AFTER: u32 = 50;
 
+/// The longest gap laid out as missing samples, in periods (2²¹: 5.8 h at 100 Hz, 17 min at
+/// 2 kHz). A stamp further ahead is a clock that jumped forward (a driver restarted with another
+/// time base, a wrong epoch): it becomes the new reference like a clock that went back
+/// ([`StampClass::Reanchored`], counted in `reanchors`), and the samples after it follow on.
+///
+/// Why this bound: it is the whole-run record's cap per axis
+/// ([`crate::model::record::RecordBuilder::DEFAULT_MAX_SAMPLES`]); a longer gap cannot be laid
+/// out in it, and before, such a jump stopped the whole-run record for the rest of the run
+/// ("a gap … is longer than the recording allows", issue 13).
+pub const MAX_GAP_SAMPLES: u64 = 1 << 21;
+
 /// The largest magnitude a rate sample can have, rad/s or m/s²; beyond it a value is not a
 /// measurement and is treated as missing, like NaN or ±∞.
 ///
@@ -173,8 +184,9 @@ pub enum StampClass {
     Duplicate,
     /// Earlier than the previous sample.
     Backwards,
-    /// The [`REANCHOR_AFTER`]th backwards stamp in a row: the clock went back, this stamp is the
-    /// new reference (the samples dropped before it count as missing).
+    /// The [`REANCHOR_AFTER`]th backwards stamp in a row (the clock went back), or a stamp more
+    /// than [`MAX_GAP_SAMPLES`] periods ahead (it jumped forward): this stamp is the new
+    /// reference (the samples dropped before it count as missing).
     Reanchored {
         /// Backwards samples dropped before this one in the run that ended here.
         dropped: u64,
@@ -192,7 +204,8 @@ pub struct Irregularities {
     pub backwards: u64,
     /// Values that were NaN, infinite or beyond [`MAX_ABS_RATE`] (that axis's sample dropped).
     pub non_finite: u64,
-    /// Times the clock went back for good and the stamps were re-anchored ([`REANCHOR_AFTER`]).
+    /// Times the clock went back for good ([`REANCHOR_AFTER`]) or jumped forward past
+    /// [`MAX_GAP_SAMPLES`], and the stamps were re-anchored.
     #[serde(default)]
     pub reanchors: u64,
 }
@@ -211,8 +224,8 @@ impl Irregularities {
         );
         if self.reanchors > 0 {
             text += &format!(
-                "; the clock went back {} times ({REANCHOR_AFTER} backwards stamps in a row): \
-                 re-anchored on the new stamps",
+                "; the clock jumped {} times (back: {REANCHOR_AFTER} backwards stamps in a row; \
+                 or forward: more than {MAX_GAP_SAMPLES} periods): re-anchored on the new stamps",
                 self.reanchors
             );
         }
@@ -272,6 +285,12 @@ impl StampCheck {
                     let missing = ((dt / self.period_ns).round() as u64)
                         .saturating_sub(1)
                         .max(1);
+                    if missing > MAX_GAP_SAMPLES {
+                        self.counts.reanchors += 1;
+                        self.backwards_run = (0, None);
+                        self.last_ns = Some(stamp_ns);
+                        return StampClass::Reanchored { dropped: 0 };
+                    }
                     StampClass::Gap { missing }
                 } else {
                     StampClass::Next

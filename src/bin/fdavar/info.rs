@@ -219,8 +219,10 @@ fn print_text(out: &mut impl Write, r: &Report) -> std::io::Result<()> {
         if n.reanchors > 0 {
             writeln!(
                 out,
-                "  the clock went back {} times (50 backward stamps in a row: re-anchored)",
-                n.reanchors
+                "  the clock jumped {} times (back: 50 backward stamps in a row; forward: more \
+                 than {} periods): re-anchored",
+                n.reanchors,
+                fdavar::signal::MAX_GAP_SAMPLES
             )?;
         }
     }

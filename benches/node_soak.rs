@@ -3,6 +3,7 @@
 //!
 //! ```text
 //! cargo bench --bench node_soak -- dds [HOURS] [DIAGNOSIS_PERIOD_S] [RATE]
+//! cargo bench --bench node_soak -- hostile [HOURS] [DIAGNOSIS_PERIOD_S] [RATE]
 //! cargo bench --bench node_soak -- in-process [HOURS] [DIAGNOSIS_PERIOD_S]
 //! ```
 //! (defaults: 24 h, a diagnosis round every 1800 s of recording time, `--rate 100`).
@@ -15,6 +16,14 @@
 //! then for each axis the published `model`, `fit_error`, every coefficient and `suggestions` must
 //! equal `fdavar diagnose BAG --json --first N --axis A` (N: the node's `diagnosed_messages`),
 //! exactly (/diagnostics carries each f64 in full, `{}` formatting).
+//!
+//! `hostile` (issue 13): the same replay of a recording with faults written into it (see
+//! [`inject_faults`]: NaN bursts, ±1e300 values, duplicated and zero stamps every hour, a publisher
+//! restart whose clock is 30 s behind at 40 % of the run, a clock jump 13 h forward at 70 %),
+//! then a flood: a second `fdavar play` of 100 000 earlier messages at 1000× (about 10⁵
+//! messages/s). Every message must be accounted for: the node's `received + drops` equals what
+//! the players sent, after the replay and after the flood; the whole-run answer equals offline
+//! on the faulty recording; and the node still publishes after the flood.
 //!
 //! `in-process`: the node's engine and monitor (`AnalysisEngine` + `Monitor`, what the node's
 //! analysis thread runs) fed HOURS of white noise + random walk at 100 Hz from this process, a
@@ -118,13 +127,13 @@ fn main() {
     let hours: f64 = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(24.0);
     let period_s: f64 = args.get(2).and_then(|a| a.parse().ok()).unwrap_or(1800.0);
     let ok = match mode {
-        "dds" => {
+        "dds" | "hostile" => {
             let rate: f64 = args.get(3).and_then(|a| a.parse().ok()).unwrap_or(100.0);
-            dds(hours, period_s, rate)
+            dds(hours, period_s, rate, mode == "hostile")
         }
         "in-process" => in_process(hours, period_s),
         other => {
-            eprintln!("node_soak: unknown mode {other:?} (dds or in-process)");
+            eprintln!("node_soak: unknown mode {other:?} (dds, hostile or in-process)");
             false
         }
     };
@@ -195,9 +204,9 @@ fn in_process(hours: f64, period_s: f64) -> bool {
 }
 
 /// `fdavar play` into `fdavar_node` over DDS (see the module doc).
-fn dds(hours: f64, period_s: f64, rate: f64) -> bool {
+fn dds(hours: f64, period_s: f64, rate: f64, hostile: bool) -> bool {
     let dir = tempfile::tempdir().expect("temporary directory");
-    let bag = dir.path().join("soak");
+    let clean = dir.path().join("soak");
     let total = (hours * 3600.0) as u64 * RATE_HZ;
     let spec = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -216,7 +225,7 @@ fn dds(hours: f64, period_s: f64, rate: f64) -> bool {
             "simulate",
             spec_path.to_str().unwrap(),
             "--out",
-            bag.to_str().unwrap(),
+            clean.to_str().unwrap(),
         ])
         .output()
         .expect("run fdavar simulate");
@@ -229,6 +238,20 @@ fn dds(hours: f64, period_s: f64, rate: f64) -> bool {
         "simulated {hours} h at {RATE_HZ} Hz ({total} messages) in {:.1} s",
         t0.elapsed().as_secs_f64()
     );
+    let bag = if hostile {
+        let faulty = dir.path().join("faulty");
+        let injected = inject_faults(&clean, &faulty, total);
+        println!("faults written: {injected}");
+        faulty
+    } else {
+        clean.clone()
+    };
+    // Messages in the bag played (the faults add duplicated ones).
+    let total = fdavar::bag::BagReader::open(&bag)
+        .expect("open the replayed bag")
+        .imu_topic(None)
+        .expect("its IMU topic")
+        .message_count;
 
     let diagnosis = format!("diagnosis_period_s:={period_s:?}");
     // The forced last round comes one period after the last /clock: not stale by then (the
@@ -289,24 +312,7 @@ fn dds(hours: f64, period_s: f64, rate: f64) -> bool {
     std::thread::spawn(move || futures::executor::block_on(spinner.spin()));
 
     let start = Instant::now();
-    let mut player = Command::new(env!("CARGO_BIN_EXE_fdavar"))
-        .args([
-            "play",
-            bag.to_str().unwrap(),
-            "--clock",
-            "--reliable",
-            "--wait-s",
-            "30",
-        ])
-        .args([
-            "--rate",
-            &rate.to_string(),
-            "--domain-id",
-            &DOMAIN.to_string(),
-        ])
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start fdavar play");
+    let mut player = play(&bag, rate, true);
     println!("replaying with fdavar play --clock --reliable --rate {rate} into fdavar_node (diagnosis every {period_s} s):");
 
     let mut last: Option<DiagnosticArray> = None;
@@ -321,11 +327,15 @@ fn dds(hours: f64, period_s: f64, rate: f64) -> bool {
             }
         }
     };
+    // Messages that reached the node: taken off DDS, or refused by its full queue.
     let samples = |a: &Option<DiagnosticArray>| -> u64 {
-        a.as_ref()
-            .and_then(|a| value(&a.status[0].values, "samples"))
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(0)
+        let count = |key| {
+            a.as_ref()
+                .and_then(|a| value(&a.status[0].values, key))
+                .and_then(|v| v.parse::<u64>().ok())
+                .unwrap_or(0)
+        };
+        count("received") + count("drops")
     };
     let played = loop {
         std::thread::sleep(Duration::from_secs(1));
@@ -340,10 +350,8 @@ fn dds(hours: f64, period_s: f64, rate: f64) -> bool {
         }
     };
     let play_wall = start.elapsed().as_secs_f64();
-    let mut said = String::new();
-    std::io::Read::read_to_string(player.stderr.as_mut().unwrap(), &mut said).unwrap();
-    // Exit 3: finished with warnings (here the bag's temperature topic, which it does not play).
-    assert!(matches!(played.code(), Some(0 | 3)), "fdavar play: {said}");
+    let said = played_said(&mut player, played);
+    let mut sent = imu_sent(&said);
 
     // Every message analysed, then one /clock a period later: a last round over all of them.
     let by = Instant::now() + Duration::from_secs(120);
@@ -388,10 +396,51 @@ fn dds(hours: f64, period_s: f64, rate: f64) -> bool {
                 .map(str::to_string)
         })
         .unwrap_or_default();
+    let array = last.clone().expect("no /diagnostics received");
+    let mut accounted = samples(&last) == sent;
+    println!(
+        "accounting after the replay: sent {sent}, node received + drops {} ({})",
+        samples(&last),
+        if accounted { "every message accounted for" } else { "MISSING" }
+    );
+
+    if hostile {
+        // A second publisher floods 100 000 messages from the start of the recording (older
+        // stamps: a restarted driver) at 1000× (about 10⁵ messages/s).
+        let flood = dir.path().join("flood");
+        copy_first(&clean, &flood, 100_000);
+        let mut flooder = play(&flood, 1000.0, false);
+        let flooded = flooder.wait().expect("wait for the flood");
+        sent += imu_sent(&played_said(&mut flooder, flooded));
+        // Node time moves on (sim time): the next publications count the flood.
+        let before = array.header.stamp.to_ns();
+        let by = Instant::now() + Duration::from_secs(60);
+        let mut k = 2;
+        while Instant::now() < by
+            && !(samples(&last) == sent
+                && last.as_ref().is_some_and(|a| a.header.stamp.to_ns() > before))
+        {
+            let _ = clock_out.publish(Clock {
+                clock: Time::from_ns(end_clock + k * 1_000_000_000).unwrap(),
+            });
+            k += 1;
+            std::thread::sleep(Duration::from_millis(500));
+            drain(&mut last);
+        }
+        let after = last.as_ref().expect("diagnostics");
+        let published = after.header.stamp.to_ns() > before;
+        println!(
+            "after the flood: sent {sent} in all, node received + drops {} (drops {}); still \
+             publishing: {}",
+            samples(&last),
+            value(&after.status[0].values, "drops").unwrap_or("?"),
+            if published { "yes" } else { "NO" }
+        );
+        accounted &= samples(&last) == sent && published;
+    }
     let _ = node.kill();
     let _ = node.wait();
 
-    let array = last.expect("no /diagnostics received");
     let drops = value(&array.status[0].values, "drops")
         .unwrap_or("?")
         .to_string();
@@ -429,7 +478,110 @@ fn dds(hours: f64, period_s: f64, rate: f64) -> bool {
         );
         equal &= differences.is_empty() && n == total;
     }
-    flat && equal
+    flat && equal && accounted
+}
+
+/// `fdavar play BAG --reliable --rate RATE` on the bench's domain (with `--clock` when asked),
+/// its stderr piped for [`played_said`].
+fn play(bag: &Path, rate: f64, clock: bool) -> std::process::Child {
+    Command::new(env!("CARGO_BIN_EXE_fdavar"))
+        .args(["play", bag.to_str().unwrap(), "--reliable", "--wait-s", "30"])
+        .args(clock.then_some("--clock"))
+        .args(["--rate", &rate.to_string(), "--domain-id", &DOMAIN.to_string()])
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start fdavar play")
+}
+
+/// What a finished `fdavar play` said on stderr; panics unless it ended well.
+fn played_said(player: &mut std::process::Child, status: std::process::ExitStatus) -> String {
+    let mut said = String::new();
+    std::io::Read::read_to_string(player.stderr.as_mut().unwrap(), &mut said).unwrap();
+    // Exit 3: finished with warnings (here the bag's temperature topic, which it does not play).
+    assert!(matches!(status.code(), Some(0 | 3)), "fdavar play: {said}");
+    said
+}
+
+/// The IMU messages `fdavar play` says it published ("fdavar play: N IMU and …").
+fn imu_sent(said: &str) -> u64 {
+    said.lines()
+        .find_map(|l| l.split_once(" IMU ")?.0.rsplit(' ').next()?.parse().ok())
+        .unwrap_or_else(|| panic!("no IMU count in {said:?}"))
+}
+
+/// Writes `out`: the first `n` IMU messages of `bag`, unchanged.
+fn copy_first(bag: &Path, out: &Path, n: usize) {
+    let reader = fdavar::bag::BagReader::open(bag).expect("open bag");
+    let topic = reader.imu_topic(None).expect("IMU topic").name.clone();
+    let mut w = fdavar::bag::BagWriter::create(out).expect("create bag");
+    for m in reader.messages(&topic, None).expect("messages").take(n) {
+        if let Ok(fdavar::bag::BagMessage::Imu { log_time_ns, sample }) = m {
+            w.write_imu(&topic, log_time_ns, &sample, "imu_link").unwrap();
+        }
+    }
+    w.finish().unwrap();
+}
+
+/// Rewrites the recording `bag` into `out` with the faults of the `hostile` mode; returns what
+/// was written. Every hour (from the 10th minute): 200 samples with gyro_x NaN, 10 with every
+/// axis ±1e300, 5 messages sent twice (duplicated stamps), 3 with a zero stamp. At 40 % of the
+/// messages the stamps go 30 s back for the rest of the run (a driver restarted on an older
+/// clock: 50 backwards stamps, then a re-anchor); at 70 % they jump 13 h forward (more than the
+/// 2²¹ periods of the longest gap laid out: a re-anchor). Log times, which pace the replay, are
+/// unchanged.
+fn inject_faults(bag: &Path, out: &Path, total: u64) -> String {
+    let reader = fdavar::bag::BagReader::open(bag).expect("open bag");
+    let topic = reader.imu_topic(None).expect("IMU topic").name.clone();
+    let mut w = fdavar::bag::BagWriter::create(out).expect("create bag");
+    let hour = 3600 * RATE_HZ;
+    let (mut nan, mut huge, mut doubled, mut zero) = (0, 0, 0, 0);
+    let mut offset_ns = 0_i64;
+    let messages = reader.messages(&topic, None).expect("messages");
+    for (k, m) in (0_u64..).zip(messages) {
+        let Ok(fdavar::bag::BagMessage::Imu { log_time_ns, mut sample }) = m else {
+            continue;
+        };
+        if k == total * 2 / 5 {
+            offset_ns -= 30_000_000_000;
+        }
+        if k == total * 7 / 10 {
+            offset_ns += 13 * 3_600_000_000_000;
+        }
+        sample.stamp_ns += offset_ns;
+        let in_hour = k % hour;
+        let mut copies = 1;
+        match in_hour {
+            60_000..60_200 => {
+                sample.gyro[0] = f64::NAN;
+                nan += 1;
+            }
+            90_000..90_010 => {
+                let v = if k % 2 == 0 { 1e300 } else { -1e300 };
+                sample.gyro = [v; 3];
+                sample.accel = [v; 3];
+                huge += 1;
+            }
+            120_000..120_005 => {
+                copies = 2;
+                doubled += 1;
+            }
+            150_000..150_003 => {
+                sample.stamp_ns = 0;
+                zero += 1;
+            }
+            _ => {}
+        }
+        for _ in 0..copies {
+            w.write_imu(&topic, log_time_ns, &sample, "imu_link").unwrap();
+        }
+    }
+    w.finish().unwrap();
+    format!(
+        "{nan} NaN samples, {huge} ±1e300 samples, {doubled} messages sent twice, {zero} zero \
+         stamps, the clock 30 s back at message {}, 13 h forward at message {}",
+        total * 2 / 5,
+        total * 7 / 10
+    )
 }
 
 fn value<'a>(values: &'a [fdavar::msgs::diagnostic_msgs::KeyValue], key: &str) -> Option<&'a str> {

@@ -492,6 +492,7 @@ impl Monitor {
             });
             let latest = fitted.as_ref();
             let mut values = vec![
+                KeyValue::new("received", c.received),
                 KeyValue::new("samples", c.samples),
                 KeyValue::new("drops", c.drops),
                 KeyValue::new("gaps", c.gaps),

@@ -635,7 +635,7 @@ pub fn step_window(n: usize, noise: &NoiseSpectrum) -> usize {
 ///
 /// # Formula
 /// ```text
-/// t²(i) = D(i)² / (2σ²_A(Wτ0)),   t² = max over W ≤ i ≤ n − W
+/// t²(i) = D(i)² / (2σ²_A(Wτ0) · W / min(c₁, c₂)),   t² = max over W ≤ i ≤ n − W
 /// λ₂ = var(D(i+1) − D(i)) / var(D) = (4·D_y(Wτ0) − D_y(2Wτ0)) / (W²·2σ²_A(Wτ0))
 /// p = min(M·P(|Z| > t),  P(|Z| > t) + 2M·(√λ₂/2π)·e^{−t²/2}),   M = n − 2W
 /// ```
@@ -659,14 +659,15 @@ pub fn step_scan(y: &[f64], noise: &NoiseSpectrum) -> Option<StepScan> {
     if var_d.is_nan() || var_d <= 0.0 {
         return None;
     }
-    let prefix = prefix_sums(y);
+    let prefix = FinitePrefix::new(y);
+    let (index, size, inflate) = (w..=n - w)
+        .filter_map(|i| prefix.contrast(i, w).map(|(d, inflate)| (i, d, inflate)))
+        .max_by(|a, b| (a.1 * a.1 / a.2).total_cmp(&(b.1 * b.1 / b.2)))?;
     let wf = w as f64;
-    let contrast = |i: usize| (prefix[i + w] - prefix[i]) / wf - (prefix[i] - prefix[i - w]) / wf;
-    let (index, size) = (w..=n - w)
-        .map(|i| (i, contrast(i)))
-        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))?;
     let wt = wf * tau0;
     let lambda2 = ((4.0 * noise.rate_structure(wt) - noise.rate_structure(2.0 * wt)) / (wf * wf) / var_d).max(0.0);
+    // Fewer finite samples next to a gap: a larger variance there.
+    let var_d = var_d * inflate;
     let mut scan = StepScan {
         index,
         size,
@@ -681,16 +682,46 @@ pub fn step_scan(y: &[f64], noise: &NoiseSpectrum) -> Option<StepScan> {
     Some(scan)
 }
 
-/// Prefix sums of `y` with non-finite samples read as 0 (length n + 1).
-fn prefix_sums(y: &[f64]) -> Vec<f64> {
-    let mut prefix = Vec::with_capacity(y.len() + 1);
-    let mut acc = 0.0;
-    prefix.push(0.0);
-    for &v in y {
-        acc += if v.is_finite() { v } else { 0.0 };
-        prefix.push(acc);
+/// Prefix sums and counts of the finite samples of a series: window means that leave gaps out.
+///
+/// Why: a gap (NaN samples: dropped messages, a pause) read as zeros pulls a window's mean towards
+/// 0, a false step as large as the level times the gap's share of the window (an accelerometer's
+/// 9.8 m/s² with 500 missing samples in a window of 3000 gave `bias_step` on clean data).
+struct FinitePrefix {
+    sum: Vec<f64>,
+    count: Vec<usize>,
+}
+
+impl FinitePrefix {
+    fn new(y: &[f64]) -> FinitePrefix {
+        let (mut sum, mut count) = (Vec::with_capacity(y.len() + 1), Vec::with_capacity(y.len() + 1));
+        let (mut acc, mut finite) = (0.0, 0);
+        sum.push(0.0);
+        count.push(0);
+        for &v in y {
+            if v.is_finite() {
+                acc += v;
+                finite += 1;
+            }
+            sum.push(acc);
+            count.push(finite);
+        }
+        FinitePrefix { sum, count }
     }
-    prefix
+
+    /// The two-window contrast at `i` with windows of `w` samples:
+    /// D(i) = mean(y[i..i+w]) − mean(y[i−w..i]) over the finite samples, and the factor
+    /// w / min(c₁, c₂) by which fewer samples inflate its variance (exact for white noise,
+    /// conservative for coloured). `None` when a window is less than half finite.
+    fn contrast(&self, i: usize, w: usize) -> Option<(f64, f64)> {
+        let mean = |a: usize, b: usize| {
+            let c = self.count[b] - self.count[a];
+            (2 * c >= w && c > 0).then(|| ((self.sum[b] - self.sum[a]) / c as f64, c))
+        };
+        let (after, ca) = mean(i, i + w)?;
+        let (before, cb) = mean(i - w, i)?;
+        Some((after - before, w as f64 / ca.min(cb) as f64))
+    }
 }
 
 /// Two-sided p-value of a t statistic given as t² (the normal tail, ×`tests` for the best of
@@ -720,19 +751,19 @@ pub fn find_step(y: &[f64]) -> (usize, f64, f64) {
     if n < 2 * w + 1 {
         return (0, 0.0, 0.0);
     }
-    let prefix = prefix_sums(y);
-    let wf = w as f64;
-    let contrast = |i: usize| (prefix[i + w] - prefix[i]) / wf - (prefix[i] - prefix[i - w]) / wf;
-    let (best_i, best_d) = (w..=n - w)
-        .map(|i| (i, contrast(i)))
-        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
-        .unwrap_or((0, 0.0));
+    let prefix = FinitePrefix::new(y);
+    // D² in units of its no-gap variance: positions next to a gap count for less.
+    let contrast = |i: usize| prefix.contrast(i, w).map(|(d, inflate)| (d, d * d / inflate));
+    let (best_i, best_d, best_d2) = (w..=n - w)
+        .filter_map(|i| contrast(i).map(|(d, d2)| (i, d, d2)))
+        .max_by(|a, b| a.2.total_cmp(&b.2))
+        .unwrap_or((0, 0.0, 0.0));
     // E[D²] = 2σ²_A(W·τ0) for stationary noise; estimated robustly from the median of D² on a
     // grid of positions (a step touches only 2W of them): median(χ²₁) = 0.4549.
-    let mut d2: Vec<f64> = (w..=n - w).step_by((w / 4).max(1)).map(|i| contrast(i).powi(2)).collect();
+    let mut d2: Vec<f64> = (w..=n - w).step_by((w / 4).max(1)).filter_map(|i| contrast(i).map(|c| c.1)).collect();
     d2.sort_by(f64::total_cmp);
     let typical = d2.get(d2.len() / 2).copied().unwrap_or(0.0) / 0.4549;
-    let strength = if typical > 0.0 { best_d * best_d / typical } else { 0.0 };
+    let strength = if typical > 0.0 { best_d2 / typical } else { 0.0 };
     (best_i, best_d, strength)
 }
 
@@ -1013,6 +1044,22 @@ mod tests {
         let s = step_scan(&y, &spectrum).unwrap();
         assert!(s.p_value < 1e-6 && (s.index as i64 - 25_000).abs() < s.window as i64 / 2, "{s:?}");
         assert!((s.size - size).abs() < 2.0 * s.sigma, "{s:?}");
+    }
+
+    /// A gap (NaN run) in a series far from zero is no step: the window means leave it out. Read
+    /// as zeros (before), the same series gave a step of about level × gap / W with p ≈ 0.
+    #[test]
+    fn a_gap_in_a_series_far_from_zero_is_no_step() {
+        let (tau0, n) = (0.01, 60_000);
+        let (mut y, spectrum) = coloured(n, 5, tau0);
+        let quiet = step_scan(&y, &spectrum).unwrap();
+        y.iter_mut().for_each(|v| *v += 9.8);
+        y[30_000..30_700].iter_mut().for_each(|v| *v = f64::NAN);
+        let gapped = step_scan(&y, &spectrum).unwrap();
+        assert!(gapped.p_value > 0.01, "{gapped:?}");
+        assert!(gapped.t2 < 2.0 * quiet.t2.max(9.0), "{gapped:?} vs {quiet:?}");
+        let (_, size, _) = find_step(&y);
+        assert!(size.abs() < 5.0 * quiet.sigma, "find_step size {size} vs σ {}", quiet.sigma);
     }
 
     /// The definition: every span of blocks scored, the first maximum kept.

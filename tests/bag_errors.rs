@@ -441,3 +441,41 @@ fn random_damage_never_panics() {
         }
     }
 }
+
+/// Issue 13: the MCAP summary CRC was not checked, so a damaged statistics record was believed
+/// (`fdavar info` reported 9.4·10¹⁸ messages). A summary whose CRC fails is ignored: the file is
+/// scanned (chunk CRCs checked) and the true count is reported.
+#[test]
+fn a_summary_whose_crc_fails_is_not_believed() {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = write_bag(dir.path(), "crc", ChunkCompression::None, 120);
+    let file = mcap_file(&bag);
+    let mut b = std::fs::read(&file).unwrap();
+    // Footer: opcode, length, summary_start, summary_offset_start, CRC; then the 8-byte magic.
+    let footer = b.len() - 37;
+    let u64_at = |b: &[u8], i: usize| u64::from_le_bytes(b[i..i + 8].try_into().unwrap());
+    assert_ne!(
+        u32::from_le_bytes(b[footer + 25..footer + 29].try_into().unwrap()),
+        0,
+        "no CRC written"
+    );
+    // The Statistics record (opcode 0x0B) in the summary section; its per-channel counts map
+    // starts 42 bytes into the body (u32 byte length, then u16 channel id and u64 count).
+    let mut at = u64_at(&b, footer + 9) as usize;
+    while b[at] != 0x0B {
+        at += 9 + u64_at(&b, at + 1) as usize;
+    }
+    let count_at = at + 9 + 42 + 4 + 2;
+    assert_eq!(u64_at(&b, count_at), 120);
+    b[count_at..count_at + 8].copy_from_slice(&9_400_000_000_000_000_000u64.to_le_bytes());
+    std::fs::write(&file, &b).unwrap();
+    let reader = BagReader::open(&bag).unwrap();
+    assert_eq!(reader.imu_topic(None).unwrap().message_count, 120);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_fdavar"))
+        .args(["info", bag.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("messages:  120\n"), "{text}");
+}

@@ -75,25 +75,28 @@ fn noise_file(dir: &Path, n: usize) -> PathBuf {
     path
 }
 
-/// A 60 s, 100 Hz six-axis white-noise bag with one gap of five samples at 10 s.
-fn gap_bag(dir: &Path) -> PathBuf {
-    let bag = dir.join("gap_bag");
+/// A six-axis white-noise bag `name` with one message per stamp, in the order given.
+fn stamped_bag(dir: &Path, name: &str, stamps: impl IntoIterator<Item = i64>) -> PathBuf {
+    let bag = dir.join(name);
     let mut writer = fdavar::bag::BagWriter::create(&bag).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(7);
-    for k in 0..6000i64 {
+    for stamp_ns in stamps {
         let mut n = |s: f64| s * rng.sample::<f64, _>(StandardNormal);
         let sample = fdavar::signal::ImuSample {
-            stamp_ns: 1_000_000_000 + k * 10_000_000,
+            stamp_ns,
             gyro: [n(1.7e-3), n(1.7e-3), n(1.7e-3)],
             accel: [n(2e-2), n(2e-2), 9.81 + n(2e-2)],
         };
-        if (1000..1005).contains(&k) {
-            continue;
-        }
-        writer.write_imu("/imu/data", sample.stamp_ns, &sample, "imu_link").unwrap();
+        writer.write_imu("/imu/data", stamp_ns, &sample, "imu_link").unwrap();
     }
     writer.finish().unwrap();
     bag
+}
+
+/// A 60 s, 100 Hz six-axis white-noise bag with one gap of five samples at 10 s.
+fn gap_bag(dir: &Path) -> PathBuf {
+    let stamps = (0..6000i64).filter(|k| !(1000..1005).contains(k));
+    stamped_bag(dir, "gap_bag", stamps.map(|k| 1_000_000_000 + k * 10_000_000))
 }
 
 const GAP_LINE: (&str, &[&str]) = ("fdavar: warning: ", &["1 gaps", "left out and counted"]);
@@ -224,4 +227,107 @@ fn export_exit_codes() {
 fn play_exit_codes_before_dds() {
     expect_error(&["play", "no/such/bag"], &["no/such/bag"]);
     expect_usage(&["play", CLEAN, "--rate", "fast"], &["fast", "--rate"]);
+}
+
+/// Issue 13, bad input that gave silent wrong results (exit 0): each now gives its exit code and
+/// the line that says what happened.
+#[test]
+fn stamps_that_hid_their_trouble_are_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    let path = |p: PathBuf| p.to_str().unwrap().to_string();
+    // All stamps equal, or every stamp earlier than the one before: no period, nothing analysed
+    // (it printed zero rows and exited 0).
+    let equal = path(stamped_bag(dir, "equal", [5_000_000_000; 300]));
+    let reversed = (0..300i64).rev().map(|k| 1_000_000_000 + k * 10_000_000);
+    let reversed = path(stamped_bag(dir, "reversed", reversed));
+    for bag in [&equal, &reversed] {
+        let said = "none of its 300 IMU stamps is later than the one before it";
+        expect_error(&["davar", bag], &[bag, said, "tau0"]);
+        let (code, _) = fdavar(&["davar", bag, "--json"]);
+        assert_eq!(code, 1);
+    }
+    // 100 Hz for 20 s, then 400 Hz for 20 s: τ0 stays 10 ms, so every later τ is 4× too long.
+    let fast = (0..2000i64)
+        .map(|k| k * 10_000_000)
+        .chain((1..=8000).map(|k| 20_000_000_000 + k * 2_500_000));
+    let rate = path(stamped_bag(dir, "rate_change", fast.map(|t| 1_000_000_000 + t)));
+    let changed: (&str, &[&str]) = (
+        "fdavar: warning: 0 gaps, 0 duplicate and 0 backwards stamps, 0 non-finite values",
+        &["; the rate changed 1 times by more than 20 % from 1/tau0"],
+    );
+    expect(&["davar", &rate, "--axis", "gyro_x", "--every", "100000"], 3, &[changed]);
+    expect(&["diagnose", &rate, "--axis", "gyro_x"], 3, &[changed]);
+    // 20 late messages, each stamped 0.5 s back: diagnose counts them as davar does (it sorted
+    // them away and reported none), and info says the same.
+    let late = (0..6000i64).flat_map(|k| {
+        let t = 1_000_000_000 + k * 10_000_000;
+        if k % 300 == 299 {
+            vec![t, t - 500_000_000]
+        } else {
+            vec![t]
+        }
+    });
+    let late = path(stamped_bag(dir, "late", late));
+    let backwards: (&str, &[&str]) = (
+        "fdavar: warning: 0 gaps, 0 duplicate and 20 backwards stamps",
+        &["left out and counted"],
+    );
+    expect(&["davar", &late, "--axis", "gyro_x", "--every", "100000"], 3, &[backwards]);
+    expect(&["diagnose", &late, "--axis", "gyro_x"], 3, &[backwards]);
+    let out = Command::new(env!("CARGO_BIN_EXE_fdavar"))
+        .args(["info", &late])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    let text = String::from_utf8_lossy(&out.stdout);
+    let counted = "gaps 0, duplicated stamps 0, backward stamps 20, non-finite values 0";
+    assert!(text.contains(counted), "{text}");
+}
+
+/// Issue 13: `model` read `N,,B` as `N,B`, and asking for `temperature` on a recording without
+/// a temperature topic must say so.
+#[test]
+fn model_specs_that_cannot_be_meant_are_refused() {
+    let empty = "empty effect name in model spec";
+    expect_usage(&["fit", CLEAN, "--model", "N,,B"], &["'N,,B'", &format!("{empty} 'N,,B'")]);
+    expect_usage(&["diagnose", CLEAN, "--model", "N,B,"], &[&format!("{empty} 'N,B,'")]);
+    expect_error(
+        &["fit", CLEAN, "--model", "N,temperature", "--axis", "gyro_x"],
+        &["gyro_x: effect 'temperature' needs a temperature topic, which this recording does not \
+           have"],
+    );
+}
+
+/// Issue 13: `simulate` wrote a bag of duplicate stamps at `rate_hz: 1e12`, aliased a sinusoid
+/// above the Nyquist frequency, and wrote the topic `/imu data//`.
+#[test]
+fn simulate_refuses_what_a_recording_cannot_hold() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sim");
+    let out = out.to_str().unwrap();
+    for (body, fragments) in [
+        (
+            "rate_hz: 1.0e12\nduration_s: 1.0e-9",
+            &["spec field 'rate_hz': 1000000000000 Hz gives tau0 = 1e-12 s, outside [1e-5, 8.64e4] s"]
+                [..],
+        ),
+        (
+            "rate_hz: 100\nduration_s: 20\naxes:\n  gyro_x: { sinusoid: { amplitude: 1.0e-3, \
+             frequency_hz: 60 } }",
+            &[
+                "spec field 'axes.gyro_x.sinusoid.frequency_hz': 60 Hz is above",
+                "(50 Hz, the Nyquist frequency)",
+            ],
+        ),
+        (
+            "rate_hz: 100\nduration_s: 20\ntopics: { imu: /imu data// }",
+            &["spec field 'topics.imu': '/imu data//' is not a ROS 2 topic name"],
+        ),
+    ] {
+        let spec = dir.path().join("spec.yaml");
+        std::fs::write(&spec, format!("seed: 3\n{body}\n")).unwrap();
+        expect_error(&["simulate", spec.to_str().unwrap(), "--out", out], fragments);
+        assert!(!Path::new(out).exists(), "{body}: a bag was written");
+    }
 }

@@ -1609,3 +1609,45 @@ fn live_equals_offline_on_a_recording_with_nan_a_gap_and_a_backwards_stamp() {
         assert_eq!(s["drops"].as_u64(), Some(0), "{axis}");
     }
 }
+
+#[test]
+fn dropped_input_turns_the_status_warn_or_error_and_the_node_keeps_serving() {
+    // Issue 13: a second publisher with an offset clock lost half the messages at level OK, and
+    // zero stamps inside a stamped stream were all dropped at level OK. Now the share dropped
+    // since the last publication sets WARN (> 1 %) or ERROR (> 50 %) with the count; afterwards
+    // the node answers parameters and, on a clean stream, publishes a share of 0 again.
+    let Some(py) = python() else { return };
+    let _node = start_node(80, &["-p", "publish_rate_hz:=4.0"]);
+    let v = peer(&py, 80, "input_loss", Duration::from_secs(90), None);
+    eprintln!("input_loss: {v}");
+    let phase = |name: &str| -> (Vec<u64>, Vec<String>, Vec<f64>, u64) {
+        let p = &v[name];
+        let strings = |key: &str| -> Vec<String> {
+            let values = p[key].as_array().unwrap().iter();
+            values.map(|x| x.as_str().unwrap().to_string()).collect()
+        };
+        let levels = p["levels"].as_array().unwrap().iter();
+        let levels: Vec<u64> = levels.map(|x| x.as_u64().unwrap()).collect();
+        let shares = strings("shares").iter().map(|s| s.parse().unwrap()).collect();
+        assert!(levels.len() >= 6, "{name}: {p}");
+        (levels, strings("messages"), shares, p["samples"].as_u64().unwrap())
+    };
+    // Half of each publication's messages are the second publisher's (backwards): WARN, or ERROR
+    // where a publication caught slightly more than half.
+    let (levels, messages, shares, offset_samples) = phase("offset");
+    for ((level, message), share) in levels.iter().zip(&messages).zip(&shares) {
+        assert!(*level >= 1 && message.contains("input lost: "), "offset: {level} {message}");
+        assert!((0.4..0.6).contains(share), "offset: {share}");
+    }
+    // Three zero stamps to each good message: 75 % dropped, ERROR.
+    let (levels, messages, shares, zero_samples) = phase("zero");
+    for ((level, message), share) in levels.iter().zip(&messages).zip(&shares) {
+        assert!(*level == 2 && message.contains("input lost: "), "zero: {level} {message}");
+        assert!((0.7..0.8).contains(share), "zero: {share}");
+    }
+    assert_eq!(v["answered"].as_f64(), Some(4.0), "get_parameters after the loss");
+    let (_, messages, shares, clean_samples) = phase("clean");
+    assert!(shares.iter().all(|s| *s == 0.0), "clean: {shares:?}");
+    assert!(messages.iter().all(|m| !m.contains("input lost")), "clean: {messages:?}");
+    assert!(offset_samples < zero_samples && zero_samples < clean_samples);
+}

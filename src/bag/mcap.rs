@@ -144,7 +144,40 @@ fn read_summary(file: &BagFile) -> Option<mcap::Summary> {
             }
         }
     }
-    reader.finish()
+    let summary = reader.finish()?;
+    summary_crc_matches(&mut f, size)?.then_some(summary)
+}
+
+/// Whether the summary CRC the footer holds matches the bytes it covers (the summary and
+/// summary-offset sections and the footer up to the CRC), or the writer left it 0 (not computed).
+/// `None` when the footer cannot be read.
+///
+/// Why: `mcap`'s summary reader does not check it, and a damaged statistics record made `fdavar
+/// info` report 9.4·10¹⁸ messages (issue 13). A file that fails is scanned instead, which checks
+/// every chunk's CRC and counts what is there.
+fn summary_crc_matches(f: &mut File, size: u64) -> Option<bool> {
+    // Footer: opcode (1), length (8), summary_start (8), summary_offset_start (8), CRC (4); magic.
+    let footer_at = size.checked_sub(1 + 8 + 20 + 8)?;
+    f.seek(std::io::SeekFrom::Start(footer_at)).ok()?;
+    let mut footer = [0u8; 29];
+    f.read_exact(&mut footer).ok()?;
+    let summary_start = u64::from_le_bytes(footer[9..17].try_into().ok()?);
+    let saved = u32::from_le_bytes(footer[25..29].try_into().ok()?);
+    if saved == 0 {
+        return Some(true);
+    }
+    let covered = (footer_at + 25).checked_sub(summary_start)?;
+    f.seek(std::io::SeekFrom::Start(summary_start)).ok()?;
+    let mut hasher = crc32fast::Hasher::new();
+    let mut rest = f.take(covered);
+    let mut buf = vec![0u8; 1 << 16];
+    loop {
+        match rest.read(&mut buf).ok()? {
+            0 => break,
+            n => hasher.update(&buf[..n]),
+        }
+    }
+    Some(rest.limit() == 0 && hasher.finalize() == saved)
 }
 
 fn from_summary(summary: &mcap::Summary, stats: &mcap::records::Statistics) -> FileSummary {

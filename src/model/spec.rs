@@ -32,6 +32,10 @@ pub enum SpecError {
     /// The spec is empty.
     #[error("empty model spec: give effect names or aliases, e.g. N,B,K")]
     Empty,
+    /// A spec with an empty term between its names, e.g. `N,,B` (issue 13: it was read as
+    /// `N,B`, hiding a name the user meant to give).
+    #[error("empty effect name in model spec '{0}' (two commas in a row, or one at an end)")]
+    EmptyTerm(String),
     /// `AXIS=SPEC` with a name that is not an axis.
     #[error("unknown axis '{0}' in '{0}=…' (axes: gyro_x gyro_y gyro_z accel_x accel_y accel_z)")]
     UnknownAxis(String),
@@ -77,7 +81,8 @@ impl ModelSpec {
     /// Parses `N,B,K,sinusoid` against the crate's registry.
     ///
     /// # Errors
-    /// [`SpecError::UnknownEffect`] naming the first unknown term, [`SpecError::Empty`].
+    /// [`SpecError::UnknownEffect`] naming the first unknown term, [`SpecError::Empty`],
+    /// [`SpecError::EmptyTerm`] for an empty name between commas.
     pub fn parse(s: &str) -> Result<Self, SpecError> {
         Self::parse_in(s, effects::REGISTRY)
     }
@@ -87,8 +92,15 @@ impl ModelSpec {
     /// # Errors
     /// As [`ModelSpec::parse`].
     pub fn parse_in(s: &str, registry: &[&'static dyn EffectKind]) -> Result<Self, SpecError> {
+        let names: Vec<&str> = s.split(',').map(str::trim).collect();
+        if names.iter().all(|n| n.is_empty()) {
+            return Err(SpecError::Empty);
+        }
+        if names.iter().any(|n| n.is_empty()) {
+            return Err(SpecError::EmptyTerm(s.to_string()));
+        }
         let mut spec = ModelSpec::default();
-        for name in s.split(',').map(str::trim).filter(|n| !n.is_empty()) {
+        for name in names {
             let kind = lookup(registry, name).ok_or_else(|| SpecError::UnknownEffect {
                 name: name.to_string(),
                 known: known_names(registry),
@@ -199,6 +211,14 @@ mod tests {
         assert!(matches!(&err, SpecError::UnknownEffect { name, .. } if name == "Bogus"));
         assert!(err.to_string().contains("white (N)"));
         assert_eq!(ModelSpec::parse_in(" , ", KINDS), Err(SpecError::Empty));
+        for spec in ["N,,B", "N,B,", ",N", "N, ,B"] {
+            let err = ModelSpec::parse_in(spec, KINDS).unwrap_err();
+            assert_eq!(err, SpecError::EmptyTerm(spec.to_string()));
+            assert_eq!(
+                err.to_string(),
+                format!("empty effect name in model spec '{spec}' (two commas in a row, or one at an end)")
+            );
+        }
     }
 
     #[test]

@@ -106,6 +106,18 @@ impl BadInput {
     }
 }
 
+/// The share of the input dropped since the last publication (queue full, duplicate, backwards
+/// or zero stamps, out of every message offered) above which each axis reports WARN.
+///
+/// Why 1 %: a healthy stream drops none; a few reordered messages in a second at 100 Hz stay
+/// below it, a second publisher or a restarted sensor clock does not. Before, any loss was
+/// reported at level OK (a second publisher with an offset clock lost half the messages, issue 13).
+pub const DROP_WARN_SHARE: f64 = 0.01;
+
+/// The share of the input dropped since the last publication above which each axis reports
+/// ERROR: more than half of what arrives is lost, so the analysis is not of the stream.
+pub const DROP_ERROR_SHARE: f64 = 0.5;
+
 /// Counts since start, published as-is.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Counters {
@@ -190,6 +202,11 @@ pub struct Monitor {
     last_diagnosis_ns: Option<i64>,
     /// Axes of the current round still to diagnose (one per publication).
     diagnosis_due: Vec<Axis>,
+    /// The counters at the last publication (the dropped share is of what came since).
+    reported: Counters,
+    /// Why the engine stopped: the message of the panic it raised. From then on every axis
+    /// reports ERROR while the counters, the checks and the publications go on.
+    engine_failure: Option<String>,
 }
 
 impl Monitor {
@@ -218,6 +235,31 @@ impl Monitor {
             diagnosis_ms: [None; 6],
             last_diagnosis_ns: None,
             diagnosis_due: Vec::new(),
+            reported: Counters::default(),
+            engine_failure: None,
+        }
+    }
+
+    /// Runs `f` on the engine, supervised: a panic in it (a bug in the analysis) stops the engine
+    /// instead of the thread, and is kept as the reason every axis then reports ERROR (issue 13:
+    /// the node must keep publishing and answering parameters). None without an engine.
+    fn supervised<T>(&mut self, f: impl FnOnce(&mut dyn RowEngine) -> T) -> Option<T> {
+        let engine = self.engine.as_mut()?;
+        match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(engine.as_mut()))) {
+            Ok(v) => Some(v),
+            Err(payload) => {
+                let why = payload
+                    .downcast_ref::<&str>()
+                    .map(|s| s.to_string())
+                    .or_else(|| payload.downcast_ref::<String>().cloned())
+                    .unwrap_or_else(|| "a panic without a message".to_string());
+                self.engine = None;
+                self.latest = Default::default();
+                self.whole_run = Default::default();
+                self.diagnosis_due.clear();
+                self.engine_failure = Some(why);
+                None
+            }
         }
     }
 
@@ -249,8 +291,14 @@ impl Monitor {
     /// The engine's reason, or that no engine runs.
     pub fn reconfigure(&mut self, change: Change) -> Result<(), String> {
         let new_model = matches!(change, Change::Model { .. });
-        match self.engine.as_mut() {
-            Some(e) => e.reconfigure(change)?,
+        if let Some(why) = &self.engine_failure {
+            return Err(format!("the analysis stopped after a panic ({why}); restart the node"));
+        }
+        match self.supervised(|e| e.reconfigure(change)) {
+            Some(result) => result?,
+            None if self.engine_failure.is_some() => {
+                return Err("the analysis panicked applying the change; restart the node".into());
+            }
             None => return Err("no F-DAVAR engine in this build".to_string()),
         }
         if new_model {
@@ -266,9 +314,9 @@ impl Monitor {
     /// for more than one axis's diagnosis (the samples queue meanwhile).
     fn diagnose_next(&mut self, now_ns: i64) {
         let period = self.settings.diagnosis_period_s;
-        let Some(engine) = self.engine.as_mut().filter(|_| period > 0.0) else {
+        if self.engine.is_none() || period <= 0.0 {
             return;
-        };
+        }
         // Due after a period, at start, and when the node's time went backwards (sim time reset).
         let due = self
             .last_diagnosis_ns
@@ -284,7 +332,7 @@ impl Monitor {
             if self.latest[axis.index()].is_some() {
                 let start = std::time::Instant::now();
                 // Too short a run keeps the previous answer (none at first).
-                if let Ok(answer) = engine.diagnose(axis) {
+                if let Some(Ok(answer)) = self.supervised(|e| e.diagnose(axis)) {
                     self.whole_run[axis.index()] = Some(answer);
                 }
                 self.diagnosis_ms[axis.index()] = Some(start.elapsed().as_secs_f64() * 1e3);
@@ -348,8 +396,8 @@ impl Monitor {
         if self.classify(&sample, &mut log) {
             self.counters.samples += 1;
         }
-        if let Some(engine) = self.engine.as_mut() {
-            for (axis, mut state) in engine.push(&sample) {
+        if let Some(made) = self.supervised(|e| e.push(&sample)) {
+            for (axis, mut state) in made {
                 state.header.frame_id.clone_from(&self.frame_id);
                 if let Some(rows) = self.new_rows.as_mut() {
                     rows.push(state.clone());
@@ -438,9 +486,7 @@ impl Monitor {
     /// Feeds one reading of the temperature topic to the engine (the live temperature
     /// coefficient).
     pub fn push_temperature(&mut self, t: &TemperatureSample) {
-        if let Some(engine) = self.engine.as_mut() {
-            engine.push_temperature(t);
-        }
+        self.supervised(|e| e.push_temperature(t));
     }
 
     /// Closes the current rate window: updates `rate_hz` and detects a rate change.
@@ -478,6 +524,8 @@ impl Monitor {
             Some(_) => None,
         };
         let c = self.counters;
+        let loss = input_loss(&self.reported, &c);
+        self.reported = c;
         let mut status = Vec::with_capacity(6);
         let mut states = Vec::new();
         for axis in Axis::ALL {
@@ -507,10 +555,18 @@ impl Monitor {
                     self.rate_hz.map_or("".to_string(), |r| format!("{r:.3}")),
                 ),
             ];
+            values.push(KeyValue::new("dropped_share", format!("{:.4}", loss.share)));
             if let Some(ms) = self.diagnosis_ms[i] {
                 values.push(KeyValue::new("diagnosis_ms", format!("{ms:.3}")));
             }
-            let (level, message) = if let Some(why) = &stale {
+            let (level, message) = if let Some(why) = &self.engine_failure {
+                (
+                    Level::Error,
+                    format!(
+                        "analysis stopped: it panicked ({why}); counting goes on, restart the node"
+                    ),
+                )
+            } else if let Some(why) = &stale {
                 (Level::Error, why.clone())
             } else if self.recent_non_finite[i] > 0 && self.latest[i].is_none() {
                 (
@@ -595,6 +651,14 @@ impl Monitor {
                     "collecting samples (no analysis row yet)".to_string(),
                 )
             };
+            // Lost input raises the level (the analysis is then of part of the stream only).
+            let (level, message) = match loss.verdict() {
+                Some((l, why)) if l > level => (l, why),
+                Some((l, why)) if l == level && level != Level::Ok => {
+                    (level, format!("{message}; {why}"))
+                }
+                _ => (level, message),
+            };
             status.push(DiagnosticStatus {
                 level: level as u8,
                 name: format!("fdavar: {axis}"),
@@ -620,6 +684,59 @@ impl Monitor {
             status,
         };
         (array, states, log)
+    }
+}
+
+/// What was dropped of the input between two publications.
+#[derive(Debug, Clone, Copy)]
+struct InputLoss {
+    /// Messages dropped (queue full, duplicate, backwards or zero stamp).
+    dropped: u64,
+    /// Messages offered: received plus dropped by the full queue.
+    offered: u64,
+    /// dropped / offered, 0 when nothing came.
+    share: f64,
+}
+
+/// The loss between the counters `before` (the last publication) and `now`.
+fn input_loss(before: &Counters, now: &Counters) -> InputLoss {
+    let dropped = |c: &Counters| c.drops + c.duplicates + c.backwards + c.zero_stamps;
+    let offered = |c: &Counters| c.received + c.drops;
+    let (dropped, offered) = (dropped(now) - dropped(before), offered(now) - offered(before));
+    let share = if offered > 0 {
+        dropped as f64 / offered as f64
+    } else {
+        0.0
+    };
+    InputLoss { dropped, offered, share }
+}
+
+impl InputLoss {
+    /// ERROR above [`DROP_ERROR_SHARE`], WARN above [`DROP_WARN_SHARE`], with the reason.
+    fn verdict(&self) -> Option<(Level, String)> {
+        let level = if self.share > DROP_ERROR_SHARE {
+            Level::Error
+        } else if self.share > DROP_WARN_SHARE {
+            Level::Warn
+        } else {
+            return None;
+        };
+        let limit = if level == Level::Error {
+            DROP_ERROR_SHARE
+        } else {
+            DROP_WARN_SHARE
+        };
+        Some((
+            level,
+            format!(
+                "input lost: {} of {} IMU messages since the last report dropped ({:.1} % > {} %; \
+                 see drops, duplicates, backwards, zero_stamps)",
+                self.dropped,
+                self.offered,
+                100.0 * self.share,
+                100.0 * limit
+            ),
+        ))
     }
 }
 
@@ -777,6 +894,116 @@ mod tests {
         let (a, _, _) = m.report(t);
         assert_eq!(level(&a, 0), Level::Warn as u8, "{a:?}");
         assert!(a.status[0].message.contains("out-of-range"), "{a:?}");
+    }
+
+    /// Issue 13: a second publisher whose clock is 10 s behind lost every message of its own as
+    /// backwards at level OK; zero stamps inside a stamped stream were dropped at level OK. Now
+    /// the share dropped since the last publication sets WARN (> 1 %) or ERROR (> 50 %), and a
+    /// clean stream afterwards is OK again.
+    #[test]
+    fn dropped_input_above_its_share_warns_or_errs_and_clears() {
+        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(Echo)));
+        let mut t = 1_000_000 * MS;
+        let good = |m: &mut Monitor, t: &mut i64, n: usize| {
+            for _ in 0..n {
+                *t += 10 * MS;
+                m.push(sample(*t, 0.1), "imu", *t);
+            }
+        };
+        good(&mut m, &mut t, 100);
+        let (a, _, _) = m.report(t);
+        assert_eq!((level(&a, 0), value(&a, 0, "dropped_share")), (Level::Ok as u8, "0.0000"));
+        // Two publishers, one each 10 ms, the second's clock 10 s behind: half is backwards.
+        for _ in 0..100 {
+            t += 10 * MS;
+            m.push(sample(t, 0.1), "imu", t);
+            m.push(sample(t - 10_000 * MS, 0.1), "imu", t);
+        }
+        let (a, _, _) = m.report(t);
+        assert_eq!(m.counters().backwards, 100);
+        assert_eq!(value(&a, 0, "dropped_share"), "0.5000");
+        for i in 0..6 {
+            assert_eq!(level(&a, i), Level::Warn as u8, "{:?}", a.status[i]);
+            assert!(
+                a.status[i].message.contains("input lost: 100 of 200 IMU messages"),
+                "{:?}",
+                a.status[i]
+            );
+        }
+        // Zero stamps inside the stamped stream: 3 of every 4 messages.
+        for _ in 0..100 {
+            for _ in 0..3 {
+                m.push(sample(0, 0.1), "imu", t);
+            }
+            good(&mut m, &mut t, 1);
+        }
+        let (a, _, _) = m.report(t);
+        assert_eq!(m.counters().zero_stamps, 300);
+        assert_eq!(level(&a, 0), Level::Error as u8, "{:?}", a.status[0]);
+        assert!(a.status[0].message.contains("300 of 400"), "{:?}", a.status[0]);
+        assert_eq!(value(&a, 0, "dropped_share"), "0.7500");
+        // Queue drops count too (offered = received + drops): 2 of 102 is over 1 %.
+        good(&mut m, &mut t, 100);
+        m.add_drops(2);
+        let (a, _, _) = m.report(t);
+        assert_eq!(level(&a, 0), Level::Warn as u8, "{:?}", a.status[0]);
+        assert!(a.status[0].message.contains("2 of 102"), "{:?}", a.status[0]);
+        // One reordered message in 200 is not a loss worth a warning; nothing lost is OK.
+        good(&mut m, &mut t, 199);
+        m.push(sample(t - 5 * MS, 0.1), "imu", t);
+        let (a, _, _) = m.report(t);
+        assert_eq!((level(&a, 0), value(&a, 0, "dropped_share")), (Level::Ok as u8, "0.0050"));
+        good(&mut m, &mut t, 100);
+        let (a, states, _) = m.report(t);
+        assert_eq!((level(&a, 0), a.status[0].message.as_str()), (Level::Ok as u8, "ok"));
+        assert_eq!(states.len(), 1, "still publishing the analysis");
+    }
+
+    /// Panics on the `at`th sample pushed, and in `diagnose`.
+    struct PanicsAt(u64);
+    impl RowEngine for PanicsAt {
+        fn push(&mut self, s: &ImuSample) -> Vec<(Axis, AxisState)> {
+            self.0 -= 1;
+            assert!(self.0 > 0, "engine bug at stamp {}", s.stamp_ns);
+            Echo.push(s)
+        }
+        fn reconfigure(&mut self, _: Change) -> Result<(), String> {
+            Ok(())
+        }
+    }
+
+    /// Issue 13: a panic in the analysis killed the node's analysis thread (publications stopped).
+    /// Supervised, it stops the engine only: every axis reports ERROR with the panic's message,
+    /// the counters and publications go on, and a live change is answered with the reason.
+    #[test]
+    fn a_panicking_engine_is_reported_as_error_and_the_monitor_keeps_serving() {
+        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(PanicsAt(150))));
+        let mut t = 0;
+        for _ in 0..100 {
+            t += 10 * MS;
+            m.push(sample(t, 0.1), "imu", t);
+        }
+        let (a, states, _) = m.report(t);
+        assert_eq!((level(&a, 0), states.len()), (Level::Ok as u8, 1));
+        for _ in 0..100 {
+            t += 10 * MS;
+            m.push(sample(t, 0.1), "imu", t);
+        }
+        let (a, states, _) = m.report(t);
+        assert!(states.is_empty(), "no rows from a stopped engine");
+        for i in 0..6 {
+            assert_eq!(level(&a, i), Level::Error as u8, "{:?}", a.status[i]);
+            let message = &a.status[i].message;
+            let want = "analysis stopped: it panicked (engine bug at stamp 1500000000)";
+            assert!(message.starts_with(want), "{message}");
+        }
+        assert_eq!(value(&a, 0, "samples"), "200");
+        let refused = m.reconfigure(Change::Model { axis: None, spec: "N".into() });
+        assert!(refused.unwrap_err().contains("engine bug at stamp 1500000000"));
+        t += 10 * MS;
+        m.push(sample(t, 0.1), "imu", t);
+        let (a, _, _) = m.report(t + 100 * MS);
+        assert_eq!((level(&a, 0), value(&a, 0, "samples")), (Level::Error as u8, "201"));
     }
 
     #[test]

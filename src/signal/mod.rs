@@ -1,7 +1,7 @@
 //! Imu messages become per-axis rate samples; stamps are checked and irregularities counted.
 //!
 //! Irregularities are facts to report, never to hide (docs/design.md §1): a gap, a duplicated stamp, time
-//! going backwards is classified by [`StampCheck`] (a [`StampClass`]), a NaN/Inf value counted by
+//! going backwards is classified by [`StampCheck`] (a [`StampClass`]), which also counts rate changes, a NaN/Inf value counted by
 //! [`StampCheck::count_non_finite`], and all of them in [`Irregularities`]; the analysis leaves out the Allan terms that would straddle it.
 //!
 //! No I/O and no ROS here: bag readers and the node convert their messages into [`ImuSample`].
@@ -170,6 +170,14 @@ pub fn is_usable(v: f64) -> bool {
     v.abs() <= MAX_ABS_RATE
 }
 
+/// Intervals averaged to tell a rate change ([`Irregularities::rate_changes`]): 1 s at 100 Hz.
+pub const RATE_WINDOW: u32 = 100;
+
+/// How far the rate over [`RATE_WINDOW`] intervals may move from 1/τ0 before it counts as a rate
+/// change: 20 %, as the node's `rate_changes`. τ0 is settled once, so after a 100 → 400 Hz change
+/// every τ is 4× too long (issue 13: `fdavar davar` said nothing of it).
+pub const RATE_CHANGE: f64 = 0.2;
+
 /// What a new stamp is, relative to the previous good one.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum StampClass {
@@ -208,12 +216,21 @@ pub struct Irregularities {
     /// [`MAX_GAP_SAMPLES`], and the stamps were re-anchored.
     #[serde(default)]
     pub reanchors: u64,
+    /// Times the rate over [`RATE_WINDOW`] intervals (gaps aside) moved more than [`RATE_CHANGE`]
+    /// from 1/τ0, counted once per change: the τ of the rows after it are off by that factor.
+    #[serde(default)]
+    pub rate_changes: u64,
 }
 
 impl Irregularities {
     /// How many irregularities of any kind were counted.
     pub fn total(&self) -> u64 {
-        self.gaps + self.duplicates + self.backwards + self.non_finite + self.reanchors
+        self.gaps
+            + self.duplicates
+            + self.backwards
+            + self.non_finite
+            + self.reanchors
+            + self.rate_changes
     }
 
     /// The counts as the CLI's warning line says them.
@@ -227,6 +244,14 @@ impl Irregularities {
                 "; the clock jumped {} times (back: {REANCHOR_AFTER} backwards stamps in a row; \
                  or forward: more than {MAX_GAP_SAMPLES} periods): re-anchored on the new stamps",
                 self.reanchors
+            );
+        }
+        if self.rate_changes > 0 {
+            text += &format!(
+                "; the rate changed {} times by more than {} % from 1/tau0 (tau0 is the first \
+                 rate's: tau is off by that factor after each change)",
+                self.rate_changes,
+                100.0 * RATE_CHANGE
             );
         }
         text
@@ -254,6 +279,10 @@ pub struct StampCheck {
     /// Backwards stamps in a row since the last accepted one, each later than the one before, and
     /// the last of them.
     backwards_run: (u32, Option<i64>),
+    /// Intervals of the current rate window and their sum, ns.
+    rate_window: (u32, f64),
+    /// Whether the last full rate window was off the nominal rate.
+    off_rate: bool,
     counts: Irregularities,
 }
 
@@ -264,7 +293,24 @@ impl StampCheck {
             period_ns: period_s * 1e9,
             last_ns: None,
             backwards_run: (0, None),
+            rate_window: (0, 0.0),
+            off_rate: false,
             counts: Irregularities::default(),
+        }
+    }
+
+    /// Adds one interval (not a gap) to the rate window; a full window off the nominal rate by
+    /// more than [`RATE_CHANGE`] counts a rate change, unless the one before was off too.
+    fn note_interval(&mut self, dt_ns: f64) {
+        self.rate_window = (self.rate_window.0 + 1, self.rate_window.1 + dt_ns);
+        if self.rate_window.0 == RATE_WINDOW {
+            let mean_ns = self.rate_window.1 / f64::from(RATE_WINDOW);
+            let off = (self.period_ns / mean_ns - 1.0).abs() > RATE_CHANGE;
+            if off && !self.off_rate {
+                self.counts.rate_changes += 1;
+            }
+            self.off_rate = off;
+            self.rate_window = (0, 0.0);
         }
     }
 
@@ -293,6 +339,7 @@ impl StampCheck {
                     }
                     StampClass::Gap { missing }
                 } else {
+                    self.note_interval(dt);
                     StampClass::Next
                 }
             }
@@ -365,5 +412,36 @@ mod tests {
         assert_eq!(c.check(60_000_000), StampClass::Next);
         let n = c.counts();
         assert_eq!((n.gaps, n.duplicates, n.backwards), (1, 1, 1));
+    }
+
+    /// Issue 13: a 100 → 400 Hz change kept τ0 = 10 ms without a word. One change is counted
+    /// when a window of 100 intervals runs 4× fast, once however long it lasts, and again after
+    /// the rate came back and changed anew; jitter of ±10 % is no change.
+    #[test]
+    fn a_rate_change_is_counted_once_per_change() {
+        let mut c = StampCheck::new(0.01);
+        let mut t = 0;
+        let mut run = |c: &mut StampCheck, n: usize, dt: i64| {
+            for k in 0..n {
+                t += dt + if k % 2 == 0 { dt / 10 } else { -dt / 10 };
+                c.check(t);
+            }
+        };
+        run(&mut c, 1000, 10_000_000);
+        assert_eq!(c.counts().rate_changes, 0, "jitter");
+        run(&mut c, 1000, 2_500_000);
+        assert_eq!(c.counts().rate_changes, 1);
+        run(&mut c, 300, 10_000_000);
+        run(&mut c, 300, 7_000_000);
+        let n = c.counts();
+        assert_eq!((n.rate_changes, n.gaps, n.total()), (2, 0, 2));
+        assert!(
+            n.describe().ends_with(
+                "; the rate changed 2 times by more than 20 % from 1/tau0 (tau0 is the first \
+                 rate's: tau is off by that factor after each change)"
+            ),
+            "{}",
+            n.describe()
+        );
     }
 }

@@ -16,7 +16,8 @@ use super::SimError;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SimSpec {
-    /// Sample rate, Hz.
+    /// Sample rate, Hz: 1/rate_hz must lie in the `tau0` parameter's range
+    /// ([`crate::params::TAU0_RANGE_S`], 10⁻⁵ to 86 400 s).
     pub rate_hz: f64,
     /// Length of the recording, s (samples = round(duration_s·rate_hz)).
     pub duration_s: f64,
@@ -165,6 +166,65 @@ fn field_error(field: impl Into<String>, reason: impl Into<String>) -> SimError 
     }
 }
 
+/// Checks a ROS 2 topic name as a bag and `fdavar play` need it: absolute, tokens of letters,
+/// digits and underscores, not starting with a digit, separated by single slashes, no trailing
+/// slash (issue 13: `/imu data//` was written into the bag).
+fn check_topic(field: &str, topic: &str) -> Result<(), SimError> {
+    let good_token = |t: &str| {
+        t.chars().next().is_some_and(|c| !c.is_ascii_digit())
+            && t.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+    };
+    match topic.strip_prefix('/') {
+        Some(rest) if rest.split('/').all(good_token) => Ok(()),
+        _ => Err(field_error(
+            field,
+            format!(
+                "'{topic}' is not a ROS 2 topic name (absolute, e.g. /imu/data: letters, digits \
+                 and _ between single slashes)"
+            ),
+        )),
+    }
+}
+
+/// Checks that no effect's frequency lies above what samples at `rate_hz` can hold: the highest
+/// frequency the fitter searches for its kind at τ0 = 1/rate_hz, which is the Nyquist frequency
+/// rate_hz/2 unless the kind says otherwise (a sinusoid above it would alias: issue 13).
+fn check_frequencies(
+    section: &str,
+    axis: &str,
+    planned: &[Planned],
+    rate_hz: f64,
+    duration_s: f64,
+) -> Result<(), SimError> {
+    let tau0 = 1.0 / rate_hz;
+    for p in planned {
+        let kind = p.effect.kind();
+        for (i, q) in p
+            .effect
+            .params()
+            .iter()
+            .enumerate()
+            .filter(|(_, q)| q.spec.unit == "Hz")
+        {
+            let highest = kind
+                .search_range(i, tau0, duration_s)
+                .map_or(0.5 * rate_hz, |r| r.1);
+            if q.value > highest {
+                return Err(field_error(
+                    format!("{section}.{axis}.{}.{}", kind.id(), q.spec.name),
+                    format!(
+                        "{} Hz is above the highest frequency samples at rate_hz {rate_hz} can hold \
+                         ({highest} Hz{})",
+                        q.value,
+                        if highest == 0.5 * rate_hz { ", the Nyquist frequency" } else { "" }
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 fn positive(field: &str, value: f64) -> Result<(), SimError> {
     if value.is_finite() && value > 0.0 {
         Ok(())
@@ -268,6 +328,19 @@ impl SimSpec {
     /// Checks every field and builds the effects.
     pub(super) fn plan(&self) -> Result<Plan, SimError> {
         positive("rate_hz", self.rate_hz)?;
+        // Stamps are whole nanoseconds: 10¹² Hz made every stamp a duplicate (issue 13).
+        let (tau0_min, tau0_max) = crate::params::TAU0_RANGE_S;
+        if !(tau0_min..=tau0_max).contains(&(1.0 / self.rate_hz)) {
+            return Err(field_error(
+                "rate_hz",
+                format!(
+                    "{} Hz gives tau0 = {:e} s, outside [{tau0_min:e}, {tau0_max:e}] s (the tau0 \
+                     range fdavar analyses)",
+                    self.rate_hz,
+                    1.0 / self.rate_hz
+                ),
+            ));
+        }
         positive("duration_s", self.duration_s)?;
         let samples = self.samples();
         if !(2..=MAX_SAMPLES).contains(&samples) {
@@ -292,12 +365,7 @@ impl SimSpec {
             ("topics.imu", &self.topics.imu),
             ("topics.temperature", &self.topics.temperature),
         ] {
-            if !topic.starts_with('/') || topic.len() < 2 {
-                return Err(field_error(
-                    field,
-                    format!("'{topic}' must be an absolute topic name"),
-                ));
-            }
+            check_topic(field, topic)?;
         }
         if let Some(t) = &self.temperature {
             for (field, v) in [
@@ -320,6 +388,7 @@ impl SimSpec {
         for (name, map) in &self.axes {
             let axis = axis_of("axes", name)?;
             let planned = resolve("axes", name, map)?;
+            check_frequencies("axes", name, &planned, self.rate_hz, self.duration_s)?;
             for p in &planned {
                 let id = p.effect.kind().id();
                 let field = format!("axes.{name}.{id}");
@@ -369,6 +438,7 @@ impl SimSpec {
                 ));
             }
             let planned = resolve("vibration", name, map)?;
+            check_frequencies("vibration", name, &planned, self.rate_hz, self.duration_s)?;
             if let Some(p) = planned.iter().find(|p| {
                 p.effect.kind().domain() != Domain::Spectral
                     || p.effect.kind().sim_stage() != SimStage::Additive

@@ -12,6 +12,9 @@ Scenarios:
   sim_time     publish rosgraph_msgs/Clock on /clock and see the node's /diagnostics stamps follow it.
   bad_input    publish NaN, backwards, duplicate and zero stamps, a gap, then go silent; the node
                must count each kind and report stale input as ERROR.
+  input_loss   a second publisher with its clock 10 s behind, then zero stamps inside the stamped
+               stream, then a clean stream: report gyro_x's levels, messages and dropped shares
+               of each phase and whether get_parameters still answers.
   temperature  publish Imu at 200 Hz and sensor_msgs/Temperature at 10 Hz for 15 s, the temperature
                ramping 20 -> 40 degC and gyro_x following it at 2e-4 rad/s/K; report the
                temperature coefficient /diagnostics shows for gyro_x and gyro_y.
@@ -265,13 +268,22 @@ def scenario_params(peer):
     # Issue 13: values that panicked the spin thread (window.max 2^63-1: capacity overflow, later
     # calls timed out) or froze the analysis while answered "successful" (tau0 1e-300) are refused
     # with the bound; the node goes on answering (below) and publishing (the window change below).
+    # The others that aborted (8 GB allocations) or ran out of memory after seconds, likewise.
     req = SetParameters.Request(parameters=[param("window.max", 9223372036854775807),
-                                            param("tau0", 1e-300)])
+                                            param("tau0", 1e-300),
+                                            param("window.max", 1000000000),
+                                            param("window.max", 10000000),
+                                            param("window.length", 1000000000),
+                                            param("window.length", 60001)])
     r = peer.call(SetParameters, f"{NODE}/set_parameters", req)
     bounds = [(x.successful, x.reason) for x in r.results] if r else []
     wmax = get("window.max")
-    ok = (len(bounds) == 2 and not bounds[0][0] and "'window.max'" in bounds[0][1]
-          and "[3, 50001]" in bounds[0][1] and not bounds[1][0] and "'tau0'" in bounds[1][1]
+    want = ["'window.max'", "'tau0'", "'window.max'", "'window.max'", "'window.length'",
+            "'window.length'"]
+    ok = (len(bounds) == len(want)
+          and all(not done and name in why for (done, why), name in zip(bounds, want))
+          and all("[3, 50001]" in why for _, why in bounds[:1] + bounds[2:])
+          and "[1e-5, 86400]" in bounds[1][1]
           and wmax is not None and wmax.integer_value == 501)
     if not ok:
         finish(False, "out-of-bounds DAVAR values not refused as expected", bounds=bounds)
@@ -341,6 +353,43 @@ def scenario_bad_input(peer):
         level(status(d, "gyro_x")) == 2 and "stale" in status(d, "gyro_x").message
         for d in peer.diagnostics), 6.0)
     finish(stale, "" if stale else "silence not reported as stale ERROR", counts=counts)
+
+
+def scenario_input_loss(peer):
+    """Issue 13: a second publisher whose clock is 10 s behind (every one of its messages is
+    backwards), then zero stamps inside the stamped stream (three per good message). Reports the
+    gyro_x levels, messages and dropped shares /diagnostics gave in each phase (the first two
+    publications of a phase, which straddle its start, left out), whether get_parameters still
+    answers, and the same for a clean phase after; the test judges them."""
+    second = peer.create_publisher(Imu, "/imu", qos_profile_sensor_data)
+    if not peer.wait_for_node() or not peer.wait_for_match():
+        finish(False, "fdavar_node not up / not matched")
+    peer.spin_until(lambda: second.get_subscription_count() > 0, 15.0)
+    peer.publish_for(1.5)
+
+    def phase(seconds, extra):
+        peer.diagnostics.clear()
+        end = time.monotonic() + seconds
+        next_t = time.monotonic()
+        while time.monotonic() < end:
+            peer.stamp_ns += 5_000_000
+            peer.imu_pub.publish(peer.imu(peer.stamp_ns))
+            for stamp in extra(peer.stamp_ns):
+                second.publish(peer.imu(stamp))
+            next_t += 0.005
+            rclpy.spin_once(peer, timeout_sec=max(0.0, next_t - time.monotonic()))
+        seen = [status(d, "gyro_x") for d in peer.diagnostics[2:]]
+        return {"levels": [level(s) for s in seen], "messages": [s.message for s in seen],
+                "shares": [kv(s, "dropped_share") for s in seen],
+                "samples": int(kv(seen[-1], "samples")) if seen else None}
+
+    offset = phase(3.0, lambda t: [t - 10_000_000_000])
+    zero = phase(3.0, lambda t: [0, 0, 0])
+    r = peer.call(GetParameters, f"{NODE}/get_parameters",
+                  GetParameters.Request(names=["publish_rate_hz"]))
+    answered = r.values[0].double_value if r and r.values else None
+    clean = phase(3.0, lambda t: [])
+    finish(True, "", offset=offset, zero=zero, clean=clean, answered=answered)
 
 
 def scenario_flood(peer):
@@ -627,7 +676,8 @@ def main():
      "sim_time": scenario_sim_time, "bad_input": scenario_bad_input, "flood": scenario_flood,
      "expect_samples": scenario_expect_samples, "model": scenario_model,
      "suggestions": scenario_suggestions, "temperature": scenario_temperature,
-     "play_clock": scenario_play_clock, "whole_run": scenario_whole_run}[scenario](peer)
+     "play_clock": scenario_play_clock, "whole_run": scenario_whole_run,
+     "input_loss": scenario_input_loss}[scenario](peer)
 
 
 if __name__ == "__main__":

@@ -150,14 +150,16 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         format,
         thinning: Thinning::new(args.every),
         printed: 0,
+        begun: false,
         axes: BTreeMap::new(),
     };
-    printer.begin().context("writing output")?;
     // Samples stream from the input and rows are printed as they come: a long recording is held
     // neither as samples nor as its DAVAR surface.
     let mut out = Output::default();
     let mut events = Vec::new();
+    let mut messages = 0u64;
     run.input.each_sample(&mut |s| {
+        messages += 1;
         pipeline.push(s, &mut out);
         for row in out.rows.drain(..) {
             printer.row(&row).context("writing output")?;
@@ -166,6 +168,16 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         Ok(())
     })?;
     pipeline.finish(&mut out);
+    if pipeline.tau0().is_none() {
+        // No stamp later than the one before it (all equal, or every one earlier): the period
+        // is unknown and nothing can be placed. It exited 0 with zero rows before (issue 13).
+        bail!(
+            "{}: none of its {messages} IMU stamps is later than the one before it (all equal or \
+             going backwards), so the sample period is unknown and nothing was analysed; set the \
+             tau0 parameter if the stamps are wrong",
+            args.input.display()
+        );
+    }
     for row in out.rows.drain(..) {
         printer.row(&row).context("writing output")?;
     }
@@ -225,11 +237,17 @@ struct Printer<W: Write> {
     format: Format,
     thinning: Thinning,
     printed: u64,
+    /// Whether the opening part is written (at the first row or the end: a run that fails before
+    /// either prints nothing).
+    begun: bool,
     axes: BTreeMap<Axis, AxisSummary>,
 }
 
 impl<W: Write> Printer<W> {
     fn begin(&mut self) -> std::io::Result<()> {
+        if std::mem::replace(&mut self.begun, true) {
+            return Ok(());
+        }
         match self.format {
             Format::Json => write!(self.w, "{{\"rows\":["),
             Format::Csv => writeln!(
@@ -241,6 +259,7 @@ impl<W: Write> Printer<W> {
     }
 
     fn row(&mut self, r: &AxisRow) -> std::io::Result<()> {
+        self.begin()?;
         let s = self.axes.entry(r.axis).or_insert(AxisSummary {
             rows: 0,
             first_s: r.time_s,
@@ -270,6 +289,7 @@ impl<W: Write> Printer<W> {
     }
 
     fn end(&mut self, p: &Pipeline, events: &[AxisEvent]) -> std::io::Result<()> {
+        self.begin()?;
         match self.format {
             Format::Json => {
                 let tail = JsonTail {

@@ -164,6 +164,10 @@ pub fn comparison_figure(before: &FittedModel, after: &FittedModel, title: &str)
         unit: before.axis.rate_unit().to_string(),
         title: title.to_string(),
         measured: measured_points(before),
+        // A time-domain effect is fitted after removing it from the samples: show that residual.
+        after_measured: (after.points.len() != before.points.len()
+            || after.points.iter().zip(&before.points).any(|(a, b)| (a.tau, a.measured) != (b.tau, b.measured)))
+        .then(|| measured_points(after)),
         before: model_curves(before),
         after: model_curves(after),
     }

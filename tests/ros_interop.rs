@@ -10,6 +10,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+// Only `param_as_message` is used here; this binary finds its Python itself.
+#[allow(dead_code)]
+mod common;
+
 fn crate_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
@@ -1356,15 +1360,18 @@ fn whole_run_differences(live: &serde_json::Value, cli: &serde_json::Value) -> V
     same("fit_error", &live["fit_error"], &cli["fit_error"]);
     same("failing_tau", &live["failing_tau"], &cli["failing_tau"]);
     same("failing_spans", &live["failing_spans"], &cli["failing_spans"]);
-    // Coefficients: the message's list of {effect, name, value} against the JSON's
-    // {effect: {name: value}}, both ways.
+    // Coefficients: the message's list of {effect, name, value, sigma, unit} against the JSON's
+    // {effect: {name: {value, sigma, unit}}}, both ways.
+    let fields = |c: &serde_json::Value| {
+        serde_json::json!({"value": c["value"], "sigma": c["sigma"], "unit": c["unit"]})
+    };
     let listed = |cs: &serde_json::Value| -> serde_json::Map<String, serde_json::Value> {
         cs.as_array()
             .into_iter()
             .flatten()
             .map(|c| {
                 let key = format!("{}.{}", c["effect"].as_str().unwrap(), c["name"].as_str().unwrap());
-                (key, c["value"].clone())
+                (key, fields(c))
             })
             .collect()
     };
@@ -1373,10 +1380,9 @@ fn whole_run_differences(live: &serde_json::Value, cli: &serde_json::Value) -> V
             .into_iter()
             .flatten()
             .flat_map(|(effect, ps)| {
-                ps.as_object()
-                    .into_iter()
-                    .flatten()
-                    .map(move |(name, v)| (format!("{effect}.{name}"), v.clone()))
+                ps.as_object().into_iter().flatten().map(move |(name, v)| {
+                    (format!("{effect}.{name}"), common::param_as_message(v))
+                })
             })
             .collect()
     };
@@ -1401,12 +1407,18 @@ fn whole_run_differences(live: &serde_json::Value, cli: &serde_json::Value) -> V
                 .as_array()
                 .into_iter()
                 .flatten()
-                .map(|p| (p["name"].as_str().unwrap().to_string(), p["value"].clone()))
+                .map(|p| (p["name"].as_str().unwrap().to_string(), fields(p)))
+                .collect();
+            let offline: serde_json::Map<String, serde_json::Value> = c["params"]
+                .as_object()
+                .into_iter()
+                .flatten()
+                .map(|(name, p)| (name.clone(), common::param_as_message(p)))
                 .collect();
             same(
                 "first suggestion's params",
                 &serde_json::Value::Object(params),
-                &c["params"],
+                &serde_json::Value::Object(offline),
             );
         }
     }

@@ -13,6 +13,8 @@
 //! - [`units`]: SI coefficients to the seed's display units (Q µrad, N °/√h, B °/h, K °/h^1.5,
 //!   R °/h²) and to Kalibr's IMU noise terms.
 //! - [`export`]: the fitted N and K per sensor in Kalibr, OpenVINS and VINS-Fusion config keys.
+//! - [`davar`]: the DAVAR surface and window trace of a recording, gathered from its streamed rows
+//!   in bounded memory.
 //! - [`fit`]: the text of `fdavar fit`/`diagnose` (every number with its unit) and the CSV of
 //!   the Allan curve, model and z per τ.
 //! - [`table`]: aligned text tables and RFC 4180 CSV from the same rows; numbers formatted to
@@ -24,6 +26,7 @@
 //! feature, looks fonts up on the system and fails on a bare CI image.
 use std::path::PathBuf;
 
+pub mod davar;
 pub mod export;
 pub mod figure;
 pub mod fit;

@@ -277,6 +277,22 @@ fn a_flood_is_dropped_and_counted_with_bounded_memory() {
     );
 }
 
+/// `fdavar play`'s exit 3 (tests/exit_codes.rs has 1 and 2; 0 is the replay below): no subscriber
+/// matched on a domain where nobody listens, so nothing may have been delivered.
+#[test]
+fn fdavar_play_without_a_subscriber_exits_3() {
+    // Python is not used: the gate says whether this machine has the ROS 2 environment.
+    let Some(_py) = python() else { return };
+    let out = Command::new(env!("CARGO_BIN_EXE_fdavar"))
+        .args(["play", concat!(env!("CARGO_MANIFEST_DIR"), "/bags/clean"), "--rate", "1000"])
+        .args(["--domain-id", "91", "--wait-s", "0.5"])
+        .output()
+        .expect("run fdavar play");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert!(err.contains("12000 IMU") && err.contains("no subscriber matched"), "{err}");
+}
+
 #[test]
 fn fdavar_play_replays_a_recording_into_the_node_without_loss() {
     let Some(py) = python() else { return };

@@ -113,9 +113,9 @@ pub fn write_fit(w: &mut dyn Write, f: &FittedModel, failing: f64) -> std::io::R
                 "  failing tau: none (the whole-record curve fits: fit_error {:.2}); the failure is in time: {}",
                 f.whole_fit_error,
                 if f.failing_spans.is_empty() {
-                    "the spans of the record together, none alone above 3"
+                    "the record's spans together, none alone above 3"
                 } else {
-                    "see failing in time"
+                    "see the spans below"
                 }
             )?;
         } else {

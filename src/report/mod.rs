@@ -1,10 +1,11 @@
 //! Rendering: figures (PNG + SVG), text tables, CSV, and display units. No maths here.
 //!
-//! Everything in this module takes *plain data* — vectors of (τ, σ) pairs, times, window lengths —
-//! defined here, not the fitter's or the DAVAR engine's types. The CLIs and the node convert their
-//! results into these structs; the renderers never reach back into the estimators. That keeps the
-//! dependency arrow one way (`model`, `davar` → `report`) and lets a figure be made from a JSON dump
-//! of a run (every figure struct is `serde`-serialisable).
+//! The renderers ([`figure`], [`table`], [`units`], [`export`]) take *plain data* — vectors of
+//! (τ, σ) pairs, times, window lengths — defined here, not the fitter's or the DAVAR engine's types,
+//! so a figure can be made from a JSON dump of a run (every figure struct is
+//! `serde`-serialisable). [`fit`] and [`davar`] are the bridges: they read a fitted model or the
+//! pipeline's rows and hand plain data to the renderers. The arrow stays one way (`model`,
+//! `pipeline` → `report`); nothing in the estimators reaches into `report`.
 //!
 //! - [`figure`]: the Allan deviation with its confidence band, model, terms and z residuals
 //!   ([`figure::AllanFigure`], before/after [`figure::AllanComparison`]), the DAVAR surface heatmap

@@ -291,6 +291,8 @@ fn fdavar_play_without_a_subscriber_exits_3() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(3), "{err}");
     assert!(err.contains("12000 IMU") && err.contains("no subscriber matched"), "{err}");
+    // The reason is the subscriber, said once; not a count of zero malformed messages.
+    assert_eq!(err.lines().count(), 1, "{err}");
 }
 
 #[test]

@@ -708,7 +708,7 @@ fn compare(
     let mut offline_coefs = BTreeMap::new();
     for (effect, params) in offline["coefficients"].as_object().into_iter().flatten() {
         for (name, v) in params.as_object().into_iter().flatten() {
-            offline_coefs.insert(format!("{effect}.{name}"), v.as_str().and_then(number));
+            offline_coefs.insert(format!("{effect}.{name}"), v["value"].as_str().and_then(number));
         }
     }
     if live_coefs != offline_coefs {

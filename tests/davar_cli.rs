@@ -378,3 +378,50 @@ fn a_file_without_line_breaks_is_refused() {
     assert!(stderr.contains("/dev/zero:1: line longer than 65536 bytes"), "{stderr}");
     assert!(start.elapsed().as_secs_f64() < 5.0, "{:?}", start.elapsed());
 }
+
+/// `--out DIR`: per axis the DAVAR surface and the window trace (PNG + SVG), drawn from every row
+/// the run made: the same SVG as the library draws from the rows and events `--json` prints.
+#[test]
+fn out_draws_the_surface_and_window_trace_of_its_rows() {
+    use fdavar::pipeline::{AxisEvent, AxisRow};
+    use fdavar::report::davar::DavarFigures;
+    use fdavar::report::figure::{write_davar_surface, write_window_trace};
+    let file = seed_signal_file(false);
+    let params = concat!(env!("CARGO_MANIFEST_DIR"), "/launch_params/seed_2016.yaml");
+    let dir = tempfile::tempdir().unwrap();
+    let figs = dir.path().join("figs");
+    let run = |extra: &[&str]| {
+        let out = fdavar()
+            .args(["davar", file.path().to_str().unwrap(), "--params", params])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+        out.stdout
+    };
+    run(&["--out", figs.to_str().unwrap()]);
+    let mut names: Vec<String> =
+        std::fs::read_dir(&figs).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    names.sort();
+    assert_eq!(
+        names,
+        ["davar_surface_gyro_x.png", "davar_surface_gyro_x.svg", "window_trace_gyro_x.png", "window_trace_gyro_x.svg"]
+    );
+
+    let json: serde_json::Value = serde_json::from_slice(&run(&["--json"])).unwrap();
+    let rows: Vec<AxisRow> = serde_json::from_value(json["rows"].clone()).unwrap();
+    let events: Vec<AxisEvent> = serde_json::from_value(json["events"].clone()).unwrap();
+    assert_eq!(events.len(), 1, "the seed's noise change");
+    let mut want = DavarFigures::new(fdavar::signal::Axis::GyroX, Some((171, 501)));
+    rows.iter().for_each(|r| want.push(r));
+    events.iter().for_each(|e| want.push_event(e.axis, &e.event));
+    let title = file.path().file_name().unwrap().to_string_lossy().into_owned();
+    let (surface, trace) = want.figures(&title).unwrap();
+    let lib = dir.path().join("lib");
+    write_davar_surface(&surface, &lib.join("davar_surface_gyro_x")).unwrap();
+    write_window_trace(&trace, &lib.join("window_trace_gyro_x")).unwrap();
+    for name in ["davar_surface_gyro_x.svg", "window_trace_gyro_x.svg"] {
+        let read = |d: &std::path::Path| std::fs::read_to_string(d.join(name)).unwrap();
+        assert!(read(&figs) == read(&lib), "{name}: the CLI's figure differs from its rows'");
+    }
+}

@@ -126,6 +126,19 @@ fn davar_exit_codes() {
     expect_error(&["davar", "no/such/file.txt", "--rate", "100"], &["no/such/file.txt"]);
     expect_usage(&["davar", file, "--json", "--csv"], &["--json", "--csv"]);
     expect(&["davar", gap, "--axis", "gyro_x", "--every", "100000"], 3, &[GAP_LINE]);
+    // --out: figures from a bag with a gap are still drawn (3), an unwritable directory is 1.
+    let figs = dir.path().join("figs");
+    expect(&["davar", gap, "--axis", "gyro_x", "--every", "100000", "--out", figs.to_str().unwrap()], 3, &[GAP_LINE]);
+    assert!(figs.join("davar_surface_gyro_x.png").is_file() && figs.join("window_trace_gyro_x.svg").is_file());
+    let blocked = blocked_dir(dir.path());
+    expect_error(&["davar", file, "--rate", "100", "--every", "1000", "--out", &blocked], &["cannot draw", "gyro_x"]);
+}
+
+/// A path below a regular file: no directory can be created there.
+fn blocked_dir(dir: &Path) -> String {
+    let file = dir.join("a_file");
+    std::fs::write(&file, "").unwrap();
+    file.join("out").to_str().unwrap().to_string()
 }
 
 #[test]
@@ -144,6 +157,9 @@ fn fit_exit_codes() {
     expect(&["fit", EFFECTS, "--model", "N,B,K", "--strict"], 3, &[misfit]);
     expect(&["fit", gap, "--model", "N,B,K", "--axis", "gyro_x"], 3, &[GAP_LINE]);
     expect_error(&["fit", "no/such/bag", "--model", "N"], &["no/such/bag"]);
+    let blocked = blocked_dir(dir.path());
+    expect_error(&["fit", CLEAN, "--model", "N", "--axis", "gyro_x", "--csv", &blocked], &["cannot write", "allan_gyro_x.csv"]);
+    expect_error(&["fit", CLEAN, "--model", "N", "--axis", "gyro_x", "--out", &blocked], &["cannot write the figure of gyro_x"]);
     expect_usage(&["fit", CLEAN, "--model", "N,Bogus"], &["'N,Bogus'", "--model", "unknown effect 'Bogus'"]);
     expect_usage(&["fit", CLEAN], &["--model"]);
 }
@@ -167,6 +183,8 @@ fn diagnose_exit_codes() {
     expect_error(&["diagnose", "no/such/bag"], &["no/such/bag"]);
     expect_usage(&["diagnose", CLEAN, "--model", "Bogus"], &["unknown effect 'Bogus'"]);
     expect_usage(&["diagnose", CLEAN, "--axis", "gyro_w"], &["gyro_w"]);
+    let blocked = blocked_dir(dir.path());
+    expect_error(&["diagnose", CLEAN, "--axis", "gyro_x", "--csv", &blocked], &["cannot write", "allan_gyro_x.csv"]);
 }
 
 #[test]
@@ -197,6 +215,7 @@ fn info_exit_codes() {
     expect_error(&["info", "no/such/bag"], &["no/such/bag"]);
     expect_error(&["info", CLEAN, "--topic", "/nope"], &["/nope"]);
     expect_usage(&["info"], &["<BAG>"]);
+    // 3: never — irregular stamps are its report (above).
 }
 
 #[test]
@@ -221,7 +240,9 @@ fn export_exit_codes() {
 }
 
 /// Without DDS only the failures that come before the first publisher: a missing bag (1) and
-/// a usage error (2). 0 and 3 need a DDS peer (tests/ros_interop.rs).
+/// a usage error (2). 0 and 3 need DDS: tests/ros_interop.rs
+/// (`fdavar_play_replays_a_recording_into_the_node_without_loss`,
+/// `fdavar_play_without_a_subscriber_exits_3`).
 #[cfg(feature = "ros")]
 #[test]
 fn play_exit_codes_before_dds() {
@@ -330,4 +351,40 @@ fn simulate_refuses_what_a_recording_cannot_hold() {
         expect_error(&["simulate", spec.to_str().unwrap(), "--out", out], fragments);
         assert!(!Path::new(out).exists(), "{body}: a bag was written");
     }
+}
+
+/// The top level: no subcommand or an unknown one is a usage error (2); `--help` and `--version`
+/// exit 0 and the help lists the codes; a reader that stops early (`fdavar … | head`) is not an
+/// error: exit 0, nothing on stderr.
+#[test]
+fn top_level_exit_codes() {
+    // No subcommand: the help, on stderr, exit 2.
+    let (code, stderr) = fdavar(&[]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("Usage: fdavar <COMMAND>"), "{stderr}");
+    expect_usage(&["bogus"], &["bogus"]);
+    let help = Command::new(env!("CARGO_BIN_EXE_fdavar")).arg("--help").output().unwrap();
+    assert_eq!(help.status.code(), Some(0));
+    let help = String::from_utf8_lossy(&help.stdout);
+    for code in ["0  ok", "1  runtime error", "2  usage error", "3  finished with warnings"] {
+        assert!(help.contains(code), "--help lacks {code:?}:\n{help}");
+    }
+    expect(&["--version"], 0, &[]);
+
+    use std::io::{BufRead, BufReader};
+    let dir = tempfile::tempdir().unwrap();
+    let file = noise_file(dir.path(), 20_000);
+    let mut child = Command::new(env!("CARGO_BIN_EXE_fdavar"))
+        .args(["davar", file.to_str().unwrap(), "--rate", "100", "--csv"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    BufReader::new(child.stdout.take().unwrap()).read_line(&mut first).unwrap();
+    assert!(first.starts_with("axis,time_s"), "{first}");
+    // The reader is dropped: the rest of the CSV meets a closed pipe.
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(out.stderr.is_empty(), "{}", String::from_utf8_lossy(&out.stderr));
 }

@@ -55,7 +55,7 @@ fn fitted(json: &Value) -> BTreeMap<&'static str, f64> {
         let name = axis["axis"].as_str().unwrap();
         let sensor = if name.starts_with("gyro") { "gyro" } else { "accel" };
         for (param, effect, key) in [("n", "white", "noise_density"), ("k", "random_walk", "random_walk")] {
-            let v = axis["coefficients"][effect][param].as_f64().unwrap();
+            let v = axis["coefficients"][effect][param]["value"].as_f64().unwrap();
             let e = m.entry(if sensor == "gyro" { gyro_key(key) } else { accel_key(key) }).or_insert(0.0);
             *e = f64::max(*e, v);
         }

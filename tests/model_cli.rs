@@ -62,7 +62,8 @@ fn diagnose_names_a_hidden_sinusoid_and_fit_removes_it() {
         if name == "gyro_y" {
             let first = suggestions.first().unwrap_or_else(|| panic!("gyro_y: no suggestion in {d}"));
             assert_eq!(first["effect"], "sinusoid", "gyro_y: {suggestions:?}");
-            let f = first["params"]["frequency_hz"].as_f64().unwrap();
+            let f = first["params"]["frequency_hz"]["value"].as_f64().unwrap();
+            assert_eq!(first["params"]["frequency_hz"]["unit"], "Hz", "gyro_y: {first}");
             assert!((f - FREQUENCY_HZ).abs() <= 0.10 * FREQUENCY_HZ, "gyro_y: frequency {f} Hz, truth {FREQUENCY_HZ}");
         } else {
             assert!(suggestions.is_empty(), "{name}: {suggestions:?}");

@@ -155,6 +155,7 @@ fn comparison() -> AllanComparison {
         unit: fig.unit,
         title: "suggestion: add sinusoid".into(),
         measured: fig.measured,
+        after_measured: None,
         before: fig.model,
         after,
     }
@@ -395,6 +396,37 @@ fn stem() -> (tempfile::TempDir, PathBuf) {
     let tmp = tempfile::tempdir().unwrap();
     let stem = tmp.path().join("bad");
     (tmp, stem)
+}
+
+/// A time-domain suggestion (temperature) is fitted to the data less that term: the "after" column
+/// draws that residual (issue 12: it drew the raw, drifting σ next to a z panel that said the model
+/// fits), each of its points once, and says so in its heading.
+#[test]
+fn comparison_after_column_draws_the_data_it_was_fitted_to() {
+    let (_keep, dir) = out_dir();
+    let same = comparison();
+    let mut residual = same.clone();
+    let n = same.measured.len();
+    let after: Vec<MeasuredPoint> = same.measured[..n - 5]
+        .iter()
+        .map(|p| MeasuredPoint { tau: p.tau, dev: p.dev / 2.0, dev_low: p.dev_low / 2.0, dev_high: p.dev_high / 2.0 })
+        .collect();
+    residual.after_measured = Some(after);
+    let circles = |fig: &AllanComparison, name: &str| {
+        let paths = write_allan_comparison(fig, &dir.join(name)).unwrap();
+        let svg = std::fs::read_to_string(&paths[1]).unwrap();
+        (svg.matches("<circle").count(), svg)
+    };
+    let (with_same, svg_same) = circles(&same, "same");
+    let (with_residual, svg) = circles(&residual, "residual");
+    // Five fewer measured points in the after column, nothing else changed.
+    assert_eq!(with_same - with_residual, 5);
+    assert!(svg.contains("after, on the data less its time-domain terms"), "heading");
+    assert!(!svg_same.contains("time-domain terms"));
+
+    residual.after_measured.as_mut().unwrap()[3].dev = f64::NAN;
+    let err = write_allan_comparison(&residual, &dir.join("bad")).unwrap_err();
+    assert!(err.to_string().contains("after_measured.dev[3]"), "{err}");
 }
 
 #[test]

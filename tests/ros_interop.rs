@@ -10,6 +10,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+// Only `param_as_message` is used here; this binary finds its Python itself.
+#[allow(dead_code)]
+mod common;
+
 fn crate_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
@@ -276,6 +280,24 @@ fn a_flood_is_dropped_and_counted_with_bounded_memory() {
         v["sent"].as_u64().unwrap() >= 2000,
         "the peer did not flood: {v}"
     );
+}
+
+/// `fdavar play`'s exit 3 (tests/exit_codes.rs has 1 and 2; 0 is the replay below): no subscriber
+/// matched on a domain where nobody listens, so nothing may have been delivered.
+#[test]
+fn fdavar_play_without_a_subscriber_exits_3() {
+    // Python is not used: the gate says whether this machine has the ROS 2 environment.
+    let Some(_py) = python() else { return };
+    let out = Command::new(env!("CARGO_BIN_EXE_fdavar"))
+        .args(["play", concat!(env!("CARGO_MANIFEST_DIR"), "/bags/clean"), "--rate", "1000"])
+        .args(["--domain-id", "91", "--wait-s", "0.5"])
+        .output()
+        .expect("run fdavar play");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert!(err.contains("12000 IMU") && err.contains("no subscriber matched"), "{err}");
+    // The reason is the subscriber, said once; not a count of zero malformed messages.
+    assert_eq!(err.lines().count(), 1, "{err}");
 }
 
 #[test]
@@ -1371,15 +1393,18 @@ fn whole_run_differences(live: &serde_json::Value, cli: &serde_json::Value) -> V
     same("fit_error", &live["fit_error"], &cli["fit_error"]);
     same("failing_tau", &live["failing_tau"], &cli["failing_tau"]);
     same("failing_spans", &live["failing_spans"], &cli["failing_spans"]);
-    // Coefficients: the message's list of {effect, name, value} against the JSON's
-    // {effect: {name: value}}, both ways.
+    // Coefficients: the message's list of {effect, name, value, sigma, unit} against the JSON's
+    // {effect: {name: {value, sigma, unit}}}, both ways.
+    let fields = |c: &serde_json::Value| {
+        serde_json::json!({"value": c["value"], "sigma": c["sigma"], "unit": c["unit"]})
+    };
     let listed = |cs: &serde_json::Value| -> serde_json::Map<String, serde_json::Value> {
         cs.as_array()
             .into_iter()
             .flatten()
             .map(|c| {
                 let key = format!("{}.{}", c["effect"].as_str().unwrap(), c["name"].as_str().unwrap());
-                (key, c["value"].clone())
+                (key, fields(c))
             })
             .collect()
     };
@@ -1388,10 +1413,9 @@ fn whole_run_differences(live: &serde_json::Value, cli: &serde_json::Value) -> V
             .into_iter()
             .flatten()
             .flat_map(|(effect, ps)| {
-                ps.as_object()
-                    .into_iter()
-                    .flatten()
-                    .map(move |(name, v)| (format!("{effect}.{name}"), v.clone()))
+                ps.as_object().into_iter().flatten().map(move |(name, v)| {
+                    (format!("{effect}.{name}"), common::param_as_message(v))
+                })
             })
             .collect()
     };
@@ -1416,12 +1440,18 @@ fn whole_run_differences(live: &serde_json::Value, cli: &serde_json::Value) -> V
                 .as_array()
                 .into_iter()
                 .flatten()
-                .map(|p| (p["name"].as_str().unwrap().to_string(), p["value"].clone()))
+                .map(|p| (p["name"].as_str().unwrap().to_string(), fields(p)))
+                .collect();
+            let offline: serde_json::Map<String, serde_json::Value> = c["params"]
+                .as_object()
+                .into_iter()
+                .flatten()
+                .map(|(name, p)| (name.clone(), common::param_as_message(p)))
                 .collect();
             same(
                 "first suggestion's params",
                 &serde_json::Value::Object(params),
-                &c["params"],
+                &serde_json::Value::Object(offline),
             );
         }
     }

@@ -179,6 +179,39 @@ pub struct ParamValue {
     pub sigma: Option<f64>,
 }
 
+impl ParamValue {
+    /// How many σ above zero [`ParamValue::upper_bound`] puts the bound of an unresolved value.
+    pub const BOUND_SIGMAS: f64 = 2.0;
+
+    /// The upper bound of a parameter the fit could not resolve: `None` when it is resolved.
+    ///
+    /// The non-negative least squares set a coefficient to zero when the data cannot tell it from
+    /// nothing; its value 0 then says nothing, but its σ still bounds it.
+    ///
+    /// # Formula
+    /// ```text
+    /// bound = BOUND_SIGMAS · sigma   when value = 0 and sigma is known
+    /// ```
+    /// (one-sided, about 97.7 % for a normal estimate).
+    pub fn upper_bound(&self) -> Option<f64> {
+        if self.value == 0.0 {
+            self.sigma.map(|s| Self::BOUND_SIGMAS * s)
+        } else {
+            None
+        }
+    }
+
+    /// The axis an axis-valued parameter (unit [`crate::model::effects::AXIS_UNIT`], e.g.
+    /// `g_sensitivity`'s `source`) names; `None` for any other parameter.
+    pub fn axis(&self) -> Option<Axis> {
+        if self.unit == crate::model::effects::AXIS_UNIT {
+            crate::model::effects::accel_axis(self.value)
+        } else {
+            None
+        }
+    }
+}
+
 /// One effect of a fitted model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FittedTerm {

@@ -1,13 +1,14 @@
 //! The JSON of `fdavar fit` / `fdavar diagnose` (docs/design.md §7, **contract**) and the figures' data.
 //!
-//! `{"axes": [{"axis", "model": [names], "fit_error", "coefficients": {effect: {param: value}},
-//! "failing_tau": [[lo, hi]], "events": [{"effect", ...params}], "suggestions": [{"effect",
-//! "params": {...}, "fit_error_after", "explanation"}]}]}`; `fit` omits `suggestions`. Beyond the
-//! contract, each axis also has `"failing_spans": [[start_s, end_s]]`: where in time the model fails.
-//! Values are SI. Plain data, built from a [`FittedModel`] / [`Diagnosis`]; no I/O here.
+//! `{"axes": [{"axis", "model": [names], "fit_error", "coefficients": {effect: {param: P}},
+//! "failing_tau": [[lo, hi]], "failing_spans": [[start_s, end_s]], "events": [{"effect",
+//! ...params}], "suggestions": [{"effect", "params": {param: P}, "fit_error_after",
+//! "explanation"}]}]}`, where every parameter P is `{"value", "sigma", "unit"}` ([`param_json`]);
+//! `fit` omits `suggestions`. Values are SI. Plain data, built from a [`FittedModel`] /
+//! [`Diagnosis`]; no I/O here.
 
 use crate::model::diagnose::Diagnosis;
-use crate::model::fit::FittedModel;
+use crate::model::fit::{FittedModel, ParamValue};
 use crate::report::figure::{AllanComparison, AllanFigure, MeasuredPoint, ModelCurves, Term};
 use serde::Serialize;
 use serde_json::{Map, Value};
@@ -28,7 +29,7 @@ pub struct AxisReport {
     pub model: Vec<String>,
     /// **contract** fit_error.
     pub fit_error: f64,
-    /// effect → parameter → value (SI).
+    /// effect → parameter → `{"value", "sigma", "unit"}` ([`param_json`]).
     pub coefficients: Map<String, Value>,
     /// **contract** failing τ intervals, seconds.
     pub failing_tau: Vec<[f64; 2]>,
@@ -45,17 +46,36 @@ fn number(v: f64) -> Value {
     serde_json::Number::from_f64(v).map_or(Value::Null, Value::Number)
 }
 
+/// One fitted parameter as the JSON writes it: `{"value", "sigma", "unit"}`.
+///
+/// `value` is SI in `unit` (the parameter's unit on its axis, as the text and the node's
+/// `Coefficient` message give it), or the axis name for an axis-valued parameter (`g_sensitivity`'s
+/// `source`: `"accel_x"`, unit `"axis"`); `sigma` is the fit's 1σ in the same unit, `null` where
+/// the fit gives none. A `value` of 0 with a `sigma` is a term the fit could not resolve: below
+/// [`ParamValue::upper_bound`].
+pub fn param_json(p: &ParamValue) -> Value {
+    let value = p
+        .axis()
+        .map_or_else(|| number(p.value), |a| Value::String(a.name().to_string()));
+    let mut m = Map::new();
+    m.insert("value".into(), value);
+    m.insert("sigma".into(), p.sigma.map_or(Value::Null, number));
+    m.insert("unit".into(), Value::String(p.unit.clone()));
+    Value::Object(m)
+}
+
+/// A list of parameters as a JSON object keyed by name.
+fn params_json(params: &[ParamValue]) -> Value {
+    Value::Object(params.iter().map(|p| (p.name.clone(), param_json(p))).collect())
+}
+
 impl AxisReport {
     /// The JSON entry of a fitted model (no suggestions).
     pub fn from_fit(fit: &FittedModel) -> Self {
         let coefficients = fit
             .terms
             .iter()
-            .map(|t| {
-                let params: Map<String, Value> =
-                    t.params.iter().map(|p| (p.name.clone(), number(p.value))).collect();
-                (t.effect.clone(), Value::Object(params))
-            })
+            .map(|t| (t.effect.clone(), params_json(&t.params)))
             .collect();
         let events = fit
             .events
@@ -94,9 +114,7 @@ impl AxisReport {
                 .map(|s| {
                     let mut m = Map::new();
                     m.insert("effect".into(), Value::String(s.effect.clone()));
-                    let params: Map<String, Value> =
-                        s.params.iter().map(|p| (p.name.clone(), number(p.value))).collect();
-                    m.insert("params".into(), Value::Object(params));
+                    m.insert("params".into(), params_json(&s.params));
                     m.insert("fit_error_after".into(), number(s.fit_error_after));
                     m.insert("explanation".into(), Value::String(s.explanation.clone()));
                     m
@@ -164,6 +182,10 @@ pub fn comparison_figure(before: &FittedModel, after: &FittedModel, title: &str)
         unit: before.axis.rate_unit().to_string(),
         title: title.to_string(),
         measured: measured_points(before),
+        // A time-domain effect is fitted after removing it from the samples: show that residual.
+        after_measured: (after.points.len() != before.points.len()
+            || after.points.iter().zip(&before.points).any(|(a, b)| (a.tau, a.measured) != (b.tau, b.measured)))
+        .then(|| measured_points(after)),
         before: model_curves(before),
         after: model_curves(after),
     }

@@ -1,10 +1,11 @@
 //! Rendering: figures (PNG + SVG), text tables, CSV, and display units. No maths here.
 //!
-//! Everything in this module takes *plain data* — vectors of (τ, σ) pairs, times, window lengths —
-//! defined here, not the fitter's or the DAVAR engine's types. The CLIs and the node convert their
-//! results into these structs; the renderers never reach back into the estimators. That keeps the
-//! dependency arrow one way (`model`, `davar` → `report`) and lets a figure be made from a JSON dump
-//! of a run (every figure struct is `serde`-serialisable).
+//! The renderers ([`figure`], [`table`], [`units`], [`export`]) take *plain data* — vectors of
+//! (τ, σ) pairs, times, window lengths — defined here, not the fitter's or the DAVAR engine's types,
+//! so a figure can be made from a JSON dump of a run (every figure struct is
+//! `serde`-serialisable). [`fit`] and [`davar`] are the bridges: they read a fitted model or the
+//! pipeline's rows and hand plain data to the renderers. The arrow stays one way (`model`,
+//! `pipeline` → `report`); nothing in the estimators reaches into `report`.
 //!
 //! - [`figure`]: the Allan deviation with its confidence band, model, terms and z residuals
 //!   ([`figure::AllanFigure`], before/after [`figure::AllanComparison`]), the DAVAR surface heatmap
@@ -13,6 +14,10 @@
 //! - [`units`]: SI coefficients to the seed's display units (Q µrad, N °/√h, B °/h, K °/h^1.5,
 //!   R °/h²) and to Kalibr's IMU noise terms.
 //! - [`export`]: the fitted N and K per sensor in Kalibr, OpenVINS and VINS-Fusion config keys.
+//! - [`davar`]: the DAVAR surface and window trace of a recording, gathered from its streamed rows
+//!   in bounded memory.
+//! - [`fit`]: the text of `fdavar fit`/`diagnose` (every number with its unit) and the CSV of
+//!   the Allan curve, model and z per τ.
 //! - [`table`]: aligned text tables and RFC 4180 CSV from the same rows; numbers formatted to
 //!   significant digits.
 //!
@@ -22,8 +27,10 @@
 //! feature, looks fonts up on the system and fails on a bare CI image.
 use std::path::PathBuf;
 
+pub mod davar;
 pub mod export;
 pub mod figure;
+pub mod fit;
 pub mod table;
 pub mod units;
 

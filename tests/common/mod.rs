@@ -27,3 +27,22 @@ pub fn python_with(imports: &str, requirements: &str) -> Option<PathBuf> {
     eprintln!("skipping: Python test tools missing: {why}");
     None
 }
+
+/// One parameter of `fdavar fit|diagnose --json` (`{value, sigma, unit}`) as the `Coefficient`
+/// message carries it, `{value, sigma, unit}` with numbers only: an axis-valued value
+/// (`"accel_y"`, unit `axis`) back to its number ([`fdavar::model::effects::accel_axis`]); a
+/// missing number (NaN in the message) is null on both sides.
+#[allow(dead_code)] // Not every test binary that includes this module compares with messages.
+pub fn param_as_message(p: &serde_json::Value) -> serde_json::Value {
+    let value = match &p["value"] {
+        serde_json::Value::String(name) => {
+            let axis: fdavar::signal::Axis = name.parse().expect("an axis name");
+            (0..3)
+                .find(|&i| fdavar::model::effects::accel_axis(f64::from(i)) == Some(axis))
+                .map(|i| serde_json::json!(f64::from(i)))
+                .unwrap_or_else(|| panic!("{name} is not an accel axis"))
+        }
+        v => v.clone(),
+    };
+    serde_json::json!({"value": value, "sigma": p["sigma"], "unit": p["unit"]})
+}

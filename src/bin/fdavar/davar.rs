@@ -1,5 +1,5 @@
-//! `fdavar davar FILE|BAG [--axis A] [--params X.yaml] [--json|--csv] [--every S]`: the F-DAVAR
-//! surface offline.
+//! `fdavar davar FILE|BAG [--axis A] [--params X.yaml] [--json|--csv] [--every S] [--out DIR]`: the
+//! F-DAVAR surface offline.
 //!
 //! Reads the input, validates the parameters into a [`DavarConfig`], runs
 //! [`fdavar::pipeline::Pipeline`] (the same path the node runs live) and prints rows and change
@@ -9,11 +9,13 @@
 //! so memory does not grow with the recording (issue 9, Build 5). `sigma_ref.mode: record` needs
 //! the whole record's variance before the first row; the bag is then read three times (mean,
 //! squared deviations, rows) rather than held: the variance is the in-memory two-pass one, bit for
-//! bit, and a second read costs less than the analysis.
+//! bit, and a second read costs less than the analysis. The figures of `--out` are gathered from
+//! the same stream in bounded memory ([`fdavar::report::davar::DavarFigures`]).
 
 use crate::Outcome;
 use anyhow::{bail, Context};
-use fdavar::pipeline::{AxisEvent, AxisRow, DavarConfig, Output, Pipeline, SigmaRefMode};
+use fdavar::pipeline::{AxisEvent, AxisRow, DavarConfig, Output, Pipeline, PolicyConfig, SigmaRefMode};
+use fdavar::report::davar::DavarFigures;
 use fdavar::signal::text::ColumnSelector;
 use fdavar::signal::{Axis, ImuSample};
 use serde::Serialize;
@@ -59,6 +61,11 @@ pub struct Args {
     /// Events and the summary are found from all rows.
     #[arg(long, value_name = "SECONDS", value_parser = positive_seconds)]
     pub every: Option<f64>,
+    /// Directory for the figures, per axis (PNG + SVG): `davar_surface_<axis>` (σ over analysis
+    /// time and τ) and `window_trace_<axis>` (F, F̃ and the window length over time), from every
+    /// row (not only those --every prints), binned to at most 1200 times (docs/report.md).
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
 }
 
 pub fn positive_seconds(s: &str) -> Result<f64, String> {
@@ -153,19 +160,31 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         begun: false,
         axes: BTreeMap::new(),
     };
+    let limits = match run.config.policy {
+        PolicyConfig::Fixed { length } => (length, length),
+        PolicyConfig::Sign { min, max, .. } | PolicyConfig::Proportional { min, max, .. } => (min, max),
+    };
+    let mut figures: Vec<DavarFigures> = match &args.out {
+        Some(_) => run.axes.iter().map(|&a| DavarFigures::new(a, Some(limits))).collect(),
+        None => Vec::new(),
+    };
     // Samples stream from the input and rows are printed as they come: a long recording is held
     // neither as samples nor as its DAVAR surface.
     let mut out = Output::default();
     let mut events = Vec::new();
     let mut messages = 0u64;
-    run.input.each_sample(&mut |s| {
-        messages += 1;
-        pipeline.push(s, &mut out);
+    let mut take = |out: &mut Output, events: &mut Vec<AxisEvent>| -> anyhow::Result<()> {
         for row in out.rows.drain(..) {
+            figures.iter_mut().for_each(|f| f.push(&row));
             printer.row(&row).context("writing output")?;
         }
         events.append(&mut out.events);
         Ok(())
+    };
+    run.input.each_sample(&mut |s| {
+        messages += 1;
+        pipeline.push(s, &mut out);
+        take(&mut out, &mut events)
     })?;
     pipeline.finish(&mut out);
     if pipeline.tau0().is_none() {
@@ -178,17 +197,41 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             args.input.display()
         );
     }
-    for row in out.rows.drain(..) {
-        printer.row(&row).context("writing output")?;
-    }
-    events.append(&mut out.events);
+    take(&mut out, &mut events)?;
     printer.end(&pipeline, &events).context("writing output")?;
+    if let Some(dir) = &args.out {
+        write_figures(dir, &mut figures, &events, &crate::fit::title(&args.input))?;
+    }
     let counts = pipeline.irregularities();
     if counts.total() > 0 {
         eprintln!("fdavar: warning: {}", counts.describe());
         return Ok(Outcome::Warnings);
     }
     Ok(Outcome::Ok)
+}
+
+/// Writes `davar_surface_<axis>` and `window_trace_<axis>` (PNG + SVG) in `dir` for each axis
+/// that has rows.
+fn write_figures(
+    dir: &Path,
+    figures: &mut [DavarFigures],
+    events: &[AxisEvent],
+    title: &str,
+) -> anyhow::Result<()> {
+    for f in figures.iter_mut() {
+        for e in events {
+            f.push_event(e.axis, &e.event);
+        }
+        let Some((surface, trace)) = f.figures(title) else {
+            continue;
+        };
+        let axis = &surface.axis;
+        fdavar::report::figure::write_davar_surface(&surface, &dir.join(format!("davar_surface_{axis}")))
+            .with_context(|| format!("cannot draw the DAVAR surface of {axis}"))?;
+        fdavar::report::figure::write_window_trace(&trace, &dir.join(format!("window_trace_{axis}")))
+            .with_context(|| format!("cannot draw the window trace of {axis}"))?;
+    }
+    Ok(())
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

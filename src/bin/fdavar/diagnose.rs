@@ -1,13 +1,13 @@
 //! `fdavar diagnose BAG [--model SPEC] [--topic T] [--axis A]... [--json] [--out DIR] [--mcap OUT]`: which
 //! physical effect the noise model misses, per axis, best first.
 
-use crate::fit::{load, outcome, print_json, title, write_fit, Common, ResultsOut};
+use crate::fit::{load, outcome, print_json, title, write_files, write_fit, Common, ResultsOut, FAILING_FIT_ERROR};
 use crate::Outcome;
 use anyhow::Context;
-use fdavar::model::output::{allan_figure, comparison_figure, AxisReport, Report};
+use fdavar::model::output::{comparison_figure, AxisReport, Report};
+use fdavar::report::fit::write_suggestions;
 use fdavar::model::ModelSpec;
 use fdavar::results::WholeRun;
-use std::io::Write;
 use std::path::PathBuf;
 
 /// Tell which physical effect the noise model misses on each axis.
@@ -53,38 +53,15 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     } else {
         let mut out = std::io::stdout().lock();
         for d in &diagnoses {
-            write_fit(&mut out, &d.fit).context("writing output")?;
-            if d.suggestions.is_empty() {
-                writeln!(out, "  suggestions: none").context("writing output")?;
-            }
-            for (i, s) in d.suggestions.iter().enumerate() {
-                let ps: Vec<String> = s
-                    .params
-                    .iter()
-                    .map(|p| format!("{}={:.4e}", p.name, p.value))
-                    .collect();
-                writeln!(
-                    out,
-                    "  suggestion {}: add {} ({}) -> fit_error {:.2}\n    {}",
-                    i + 1,
-                    s.effect,
-                    ps.join(", "),
-                    s.fit_error_after,
-                    s.explanation
-                )
-                .context("writing output")?;
-            }
+            write_fit(&mut out, &d.fit, FAILING_FIT_ERROR).context("writing output")?;
+            write_suggestions(&mut out, d).context("writing output")?;
         }
     }
+    write_files(&args.common, &args.bag, diagnoses.iter().map(|d| &d.fit))?;
     if let Some(dir) = &args.common.out {
         let name = title(&args.bag);
         for d in &diagnoses {
             let axis = d.fit.axis;
-            fdavar::report::figure::write_allan(
-                &allan_figure(&d.fit, &name),
-                &dir.join(format!("allan_{axis}")),
-            )
-            .with_context(|| format!("cannot write the figure of {axis}"))?;
             if let (Some(s), Some(after)) = (d.suggestions.first(), d.after.first()) {
                 let stem = dir.join(format!("suggestion_{axis}_{}", s.effect));
                 fdavar::report::figure::write_allan_comparison(

@@ -13,7 +13,8 @@ use fdavar::model::output::{allan_figure, AxisReport, Report};
 use fdavar::model::spec::axis_models;
 use fdavar::model::{FittedModel, ModelSpec};
 use fdavar::pipeline::{AxisRow, DavarConfig, SigmaRefMode};
-use fdavar::report::units::{Coefficient, Sensor};
+use fdavar::report::fit::allan_table;
+pub use fdavar::report::fit::write_fit;
 use fdavar::results::{axis_state, ResultsWriter, WholeRun};
 use fdavar::signal::Axis;
 use std::io::Write;
@@ -56,6 +57,10 @@ pub struct Common {
     /// Directory for figures (PNG + SVG per axis).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Directory for one CSV per axis, `allan_<axis>.csv`: per τ the measured Allan deviation
+    /// with its 68.3 % bounds and EDF, the model's deviation and z (columns in docs/model.md).
+    #[arg(long, value_name = "DIR")]
+    pub csv: Option<PathBuf>,
     /// Analyse only the first N IMU messages of the recording (counted as recorded, bad ones
     /// included): the cut that reproduces what the node published with `diagnosed_messages: N`.
     #[arg(long, value_name = "N")]
@@ -109,20 +114,14 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     } else {
         let mut out = std::io::stdout().lock();
         for f in &fits {
-            write_fit(&mut out, f).context("writing output")?;
+            write_fit(&mut out, f, FAILING_FIT_ERROR).context("writing output")?;
         }
     }
     if let Some(results) = results {
         let (messages, until_s) = (analysis.messages(), analysis.duration_s().unwrap_or(0.0));
         results.finish(fits.iter().map(|f| (f.axis, WholeRun::from_fit(f, messages, until_s))))?;
     }
-    if let Some(dir) = &args.common.out {
-        for f in &fits {
-            let stem = dir.join(format!("allan_{}", f.axis));
-            fdavar::report::figure::write_allan(&allan_figure(f, &title(&args.bag)), &stem)
-                .with_context(|| format!("cannot write the figure of {}", f.axis))?;
-        }
-    }
+    write_files(&args.common, &args.bag, fits.iter())?;
     Ok(outcome(&analysis, &fits, args.common.strict, "`fdavar diagnose` suggests what is missing"))
 }
 
@@ -151,6 +150,29 @@ pub fn outcome(analysis: &Analysis, fits: &[FittedModel], strict: bool, hint: &s
     } else {
         Outcome::Ok
     }
+}
+
+/// Writes what `--out` (the Allan figure) and `--csv` (the Allan curve, model and z) ask for, per
+/// fitted axis.
+pub fn write_files<'a>(
+    common: &Common,
+    bag: &Path,
+    fits: impl Iterator<Item = &'a FittedModel>,
+) -> anyhow::Result<()> {
+    for f in fits {
+        if let Some(dir) = &common.out {
+            let stem = dir.join(format!("allan_{}", f.axis));
+            fdavar::report::figure::write_allan(&allan_figure(f, &title(bag)), &stem)
+                .with_context(|| format!("cannot write the figure of {}", f.axis))?;
+        }
+        if let Some(dir) = &common.csv {
+            let path = dir.join(format!("allan_{}.csv", f.axis));
+            std::fs::create_dir_all(dir)
+                .and_then(|()| std::fs::write(&path, allan_table(f).to_csv()))
+                .with_context(|| format!("cannot write {}", path.display()))?;
+        }
+    }
+    Ok(())
 }
 
 /// A figure title from the bag's file name.
@@ -282,60 +304,3 @@ pub fn print_json<T: serde::Serialize>(doc: &T) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The readable table of one fitted axis.
-pub fn write_fit(w: &mut dyn Write, f: &FittedModel) -> std::io::Result<()> {
-    writeln!(
-        w,
-        "{}  model {}  fit_error {:.2}",
-        f.axis, f.spec, f.fit_error
-    )?;
-    let sensor = Sensor::of_axis(f.axis.name());
-    for t in &f.terms {
-        for p in &t.params {
-            let sigma = p.sigma.map_or(String::new(), |s| format!(" ± {s:.3e}"));
-            let display = match (Coefficient::from_effect(&t.effect), sensor) {
-                (Some(c), Some(s)) if p.name == t.params[0].name => {
-                    format!("  = {:.4} {}", c.to_display(s, p.value), c.display_unit(s))
-                }
-                _ => String::new(),
-            };
-            writeln!(
-                w,
-                "  {:<18} {:<18} {:>12.4e}{sigma} {}{display}",
-                t.effect, p.name, p.value, p.unit
-            )?;
-        }
-    }
-    if f.failing_tau.is_empty() {
-        writeln!(w, "  failing tau: none")?;
-    } else {
-        let spans: Vec<String> = f
-            .failing_tau
-            .iter()
-            .map(|r| format!("{:.3}-{:.3} s", r[0], r[1]))
-            .collect();
-        writeln!(w, "  failing tau: {}", spans.join(", "))?;
-    }
-    if !f.failing_spans.is_empty() {
-        let spans: Vec<String> = f
-            .failing_spans
-            .iter()
-            .map(|s| format!("{:.1}-{:.1} s", s.start_s, s.end_s))
-            .collect();
-        writeln!(
-            w,
-            "  failing in time: {} (whole record alone: fit_error {:.2})",
-            spans.join(", "),
-            f.whole_fit_error
-        )?;
-    }
-    for e in &f.events {
-        let ps: Vec<String> = e
-            .params
-            .iter()
-            .map(|(k, v)| format!("{k}={v:.4}"))
-            .collect();
-        writeln!(w, "  event: {} {}", e.effect, ps.join(" "))?;
-    }
-    Ok(())
-}

@@ -103,11 +103,15 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             }
         );
     }
-    if report.malformed > 0 || !report.matched || (args.clock && !report.clock_matched) {
+    if report.malformed > 0 {
         eprintln!(
             "fdavar play: {} malformed messages skipped",
             report.malformed
         );
+    }
+    // The lines above said why: malformed messages, or no subscriber matched (nothing may have
+    // been delivered).
+    if report.malformed > 0 || !report.matched || (args.clock && !report.clock_matched) {
         return Ok(Outcome::Warnings);
     }
     Ok(Outcome::Ok)

@@ -1,7 +1,7 @@
 //! `g_sensitivity`: a gyro bias proportional to the specific force on one accel axis.
 
 use super::{
-    check_params, params_of, Domain, Effect, EffectKind, Evidence, Explanation, KindInfo, Param,
+    accel_axis, check_params, params_of, Domain, Effect, EffectKind, Evidence, Explanation, KindInfo, Param,
     ParamError, ParamSpec, SimContext, SimStage,
 };
 use crate::signal::Axis;
@@ -10,7 +10,7 @@ use rand::RngCore;
 static SCHEMA: &[ParamSpec] = &[
     ParamSpec {
         name: "source",
-        unit: "axis",
+        unit: super::AXIS_UNIT,
         bounds: (0.0, 2.0),
         doc: "accel axis the gyro responds to: 0 = accel_x, 1 = accel_y, 2 = accel_z",
     },
@@ -90,7 +90,8 @@ impl GSensitivity {
 
     /// The accel axis the gyro responds to.
     pub fn source(&self) -> Axis {
-        Axis::ALL[3 + self.source]
+        // `new` admits only 0, 1 and 2.
+        accel_axis(self.source as f64).unwrap_or(Axis::AccelX)
     }
 
     /// The coefficient, (rad/s)/(m/s²).

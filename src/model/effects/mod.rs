@@ -142,6 +142,27 @@ pub fn unit_on_axis(gyro_unit: &str, axis: crate::signal::Axis) -> String {
     }
 }
 
+/// The unit of a parameter whose value names an accel axis by number (`g_sensitivity`'s `source`):
+/// every parameter stays an `f64`, and reports print the axis name ([`accel_axis`]).
+pub const AXIS_UNIT: &str = "axis";
+
+/// The accel axis an axis-valued parameter ([`AXIS_UNIT`]) names: 0 = `accel_x`, 1 = `accel_y`,
+/// 2 = `accel_z`; `None` for any other value.
+///
+/// ```
+/// use fdavar::model::effects::accel_axis;
+/// use fdavar::signal::Axis;
+/// assert_eq!(accel_axis(1.0), Some(Axis::AccelY));
+/// assert_eq!(accel_axis(0.5), None);
+/// ```
+pub fn accel_axis(value: f64) -> Option<crate::signal::Axis> {
+    use crate::signal::Axis;
+    [(0.0, Axis::AccelX), (1.0, Axis::AccelY), (2.0, Axis::AccelZ)]
+        .into_iter()
+        .find(|&(v, _)| v == value)
+        .map(|(_, a)| a)
+}
+
 /// One parameter value with its schema.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Param {

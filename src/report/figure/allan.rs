@@ -72,11 +72,14 @@ pub struct AllanFigure {
     pub model: ModelCurves,
 }
 
-/// Before/after figure for a suggested effect: the same measurement against two models, side by
-/// side on identical axes, each column with its fit error.
+/// Before/after figure for a suggested effect: two models, each against the data it was fitted to,
+/// side by side on identical axes, each column with its fit error.
 ///
 /// Use it to show what adding a diagnosed effect changes: the shaded failing τ ranges should
-/// shrink and the fit error fall from left to right. Write it with [`write_allan_comparison`].
+/// shrink and the fit error fall from left to right. A spectral effect (a sinusoid) is fitted to
+/// the same Allan curve; a time-domain effect (temperature, a bias step) is removed from the
+/// samples first, so the "after" column shows the Allan deviation of what is left
+/// (`after_measured`), the data its z panel judges. Write it with [`write_allan_comparison`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AllanComparison {
     /// Axis name (`gyro_x` … `accel_z`).
@@ -87,6 +90,10 @@ pub struct AllanComparison {
     pub title: String,
     /// Measured deviations with confidence intervals, τ increasing.
     pub measured: Vec<MeasuredPoint>,
+    /// The data the "after" model is fitted to when it is not `measured`: the deviations of the
+    /// samples with the suggested time-domain term removed; `None`: the same as `measured`.
+    #[serde(default)]
+    pub after_measured: Option<Vec<MeasuredPoint>>,
     /// The model before the suggestion.
     pub before: ModelCurves,
     /// The model with the suggested effect added.
@@ -106,8 +113,7 @@ pub fn write_allan(figure: &AllanFigure, stem: &Path) -> Result<Vec<PathBuf>, Re
         &figure.axis,
         &figure.unit,
         &figure.title,
-        &figure.measured,
-        vec![(String::new(), &figure.model)],
+        vec![(String::new(), &figure.model, &figure.measured)],
     )?;
     write_figure(&panels, stem)
 }
@@ -120,15 +126,15 @@ pub fn write_allan_comparison(
     figure: &AllanComparison,
     stem: &Path,
 ) -> Result<Vec<PathBuf>, ReportError> {
+    let after: Column<'_> = match &figure.after_measured {
+        Some(m) => ("after, on the data less its time-domain terms".to_string(), &figure.after, m),
+        None => ("after".to_string(), &figure.after, &figure.measured),
+    };
     let panels = Panels::new(
         &figure.axis,
         &figure.unit,
         &figure.title,
-        &figure.measured,
-        vec![
-            ("before".to_string(), &figure.before),
-            ("after".to_string(), &figure.after),
-        ],
+        vec![("before".to_string(), &figure.before, &figure.measured[..]), after],
     )?;
     write_figure(&panels, stem)
 }
@@ -163,14 +169,16 @@ fn validate_model(which: &str, m: &ModelCurves) -> Result<(), ReportError> {
     check_finite(FIGURE, &f("fit_error"), [m.fit_error])
 }
 
+/// One column of an Allan figure: (heading, model, the measurement it was fitted to).
+type Column<'a> = (String, &'a ModelCurves, &'a [MeasuredPoint]);
+
 /// A validated Allan figure with one column per model and shared axis ranges.
 struct Panels<'a> {
     axis: &'a str,
     unit: &'a str,
     title: &'a str,
-    measured: &'a [MeasuredPoint],
-    /// (column heading, model).
-    models: Vec<(String, &'a ModelCurves)>,
+    /// (column heading, model, measurement).
+    models: Vec<Column<'a>>,
     /// Term names in first-appearance order; a term keeps its colour across columns.
     term_names: Vec<String>,
     tau_range: std::ops::Range<f64>,
@@ -184,15 +192,19 @@ impl<'a> Panels<'a> {
         axis: &'a str,
         unit: &'a str,
         title: &'a str,
-        measured: &'a [MeasuredPoint],
-        models: Vec<(String, &'a ModelCurves)>,
+        models: Vec<Column<'a>>,
     ) -> Result<Self, ReportError> {
-        check_non_empty(FIGURE, "measured", measured.len())?;
-        check_positive(FIGURE, "measured.tau", measured.iter().map(|p| p.tau))?;
-        check_positive(FIGURE, "measured.dev", measured.iter().map(|p| p.dev))?;
-        let bands: Vec<(f64, f64)> = measured.iter().map(|p| (p.dev_low, p.dev_high)).collect();
-        check_intervals(FIGURE, "measured.dev_low/dev_high", &bands, true)?;
-        for (heading, m) in &models {
+        for (i, (_, _, measured)) in models.iter().enumerate() {
+            // The first column's data is `measured`, a second one's `after_measured`.
+            let field = if i == 0 { "measured" } else { "after_measured" };
+            let f = |name: &str| format!("{field}{name}");
+            check_non_empty(FIGURE, field, measured.len())?;
+            check_positive(FIGURE, &f(".tau"), measured.iter().map(|p| p.tau))?;
+            check_positive(FIGURE, &f(".dev"), measured.iter().map(|p| p.dev))?;
+            let bands: Vec<(f64, f64)> = measured.iter().map(|p| (p.dev_low, p.dev_high)).collect();
+            check_intervals(FIGURE, &f(".dev_low/dev_high"), &bands, true)?;
+        }
+        for (heading, m, _) in &models {
             let prefix = if heading.is_empty() {
                 "model.".to_string()
             } else {
@@ -202,7 +214,7 @@ impl<'a> Panels<'a> {
         }
 
         let mut term_names: Vec<String> = Vec::new();
-        for (_, m) in &models {
+        for (_, m, _) in &models {
             for t in &m.terms {
                 if !term_names.contains(&t.name) {
                     term_names.push(t.name.clone());
@@ -210,33 +222,31 @@ impl<'a> Panels<'a> {
             }
         }
         // Validated above: every range below has at least one positive finite value.
-        let all_tau = measured.iter().map(|p| p.tau).chain(
-            models
-                .iter()
-                .flat_map(|(_, m)| m.total.iter().chain(&m.z).map(|p| p.0)),
-        );
+        let all_tau = models.iter().flat_map(|(_, m, measured)| {
+            measured.iter().map(|p| p.tau).chain(m.total.iter().chain(&m.z).map(|p| p.0))
+        });
         let (tau_lo, tau_hi) = min_max(all_tau).unwrap_or((1.0, 10.0));
         // σ range from what must be seen: the measurement, its band and the model totals. Terms
         // that fall far below (e.g. quantization at long τ) run off the bottom of the plot.
-        let all_dev = measured.iter().flat_map(|p| [p.dev_low, p.dev_high]).chain(
-            models
+        let all_dev = models.iter().flat_map(|(_, m, measured)| {
+            measured
                 .iter()
-                .flat_map(|(_, m)| m.total.iter().map(|p| p.1).filter(|&d| d > 0.0)),
-        );
+                .flat_map(|p| [p.dev_low, p.dev_high])
+                .chain(m.total.iter().map(|p| p.1).filter(|&d| d > 0.0))
+        });
         let (dev_lo, dev_hi) = min_max(all_dev).unwrap_or((1.0, 10.0));
         check_log_span(FIGURE, "tau", tau_lo, tau_hi)?;
         check_log_span(FIGURE, "dev", dev_lo, dev_hi)?;
         let z_max = min_max(
             models
                 .iter()
-                .flat_map(|(_, m)| m.z.iter().map(|p| p.1.abs())),
+                .flat_map(|(_, m, _)| m.z.iter().map(|p| p.1.abs())),
         )
         .map_or(0.0, |(_, hi)| hi);
         Ok(Panels {
             axis,
             unit,
             title,
-            measured,
             models,
             term_names,
             tau_range: log_range(tau_lo, tau_hi, 1.25),
@@ -251,18 +261,14 @@ impl<'a> Panels<'a> {
         TERM_COLOURS[i % TERM_COLOURS.len()]
     }
 
-    /// τ of the measured grid, for padding shaded spans by half a grid step.
-    fn grid(&self) -> Vec<f64> {
-        self.measured.iter().map(|p| p.tau).collect()
-    }
-
-    /// Draws one column: σ(τ) panel over z(τ) panel for `model`.
+    /// Draws one column: σ(τ) panel over z(τ) panel for `model` fitted to `measured`.
     fn draw_column<DB: DrawingBackend>(
         &self,
         area: &DrawingArea<DB, Shift>,
-        heading: &str,
-        model: &ModelCurves,
+        (heading, model, measured): &Column<'_>,
     ) -> Drawn {
+        // τ of the measured grid, for padding shaded spans by half a grid step.
+        let grid: Vec<f64> = measured.iter().map(|p| p.tau).collect();
         let caption = if heading.is_empty() {
             format!("model {} — fit error {:.2}", model.label, model.fit_error)
         } else {
@@ -276,7 +282,7 @@ impl<'a> Panels<'a> {
         let spans: Vec<(f64, f64)> = model
             .failing_tau
             .iter()
-            .map(|&(lo, hi)| pad_span(lo, hi, &self.grid()))
+            .map(|&(lo, hi)| pad_span(lo, hi, &grid))
             .collect();
 
         // --- σ(τ) panel
@@ -304,11 +310,10 @@ impl<'a> Panels<'a> {
                 .map(|&(lo, hi)| Rectangle::new([(lo, y0), (hi, y1)], SHADE.filled())),
         )?;
         // Confidence band as one polygon: upper edge left→right, lower edge right→left.
-        let band: Vec<(f64, f64)> = self
-            .measured
+        let band: Vec<(f64, f64)> = measured
             .iter()
             .map(|p| (p.tau, p.dev_high))
-            .chain(self.measured.iter().rev().map(|p| (p.tau, p.dev_low)))
+            .chain(measured.iter().rev().map(|p| (p.tau, p.dev_low)))
             .collect();
         chart.draw_series(std::iter::once(Polygon::new(band, BAND.filled())))?;
         for term in &model.terms {
@@ -321,11 +326,11 @@ impl<'a> Panels<'a> {
             chart.draw_series(LineSeries::new(segment, BLACK.stroke_width(3)))?;
         }
         chart.draw_series(LineSeries::new(
-            self.measured.iter().map(|p| (p.tau, p.dev)),
+            measured.iter().map(|p| (p.tau, p.dev)),
             MEASURED.stroke_width(1),
         ))?;
         chart.draw_series(
-            self.measured
+            measured
                 .iter()
                 .map(|p| Circle::new((p.tau, p.dev), 3, MEASURED.filled())),
         )?;
@@ -400,7 +405,7 @@ impl<'a> Panels<'a> {
             (LegendMark::Line(BLACK, 3), "model total".to_string()),
         ];
         for name in &self.term_names {
-            let zero = self.models.iter().all(|(_, m)| {
+            let zero = self.models.iter().all(|(_, m, _)| {
                 m.terms
                     .iter()
                     .filter(|t| &t.name == name)
@@ -434,8 +439,8 @@ impl Figure for Panels<'_> {
         let body = draw_heading(root, heading)?;
         let (plots, legend) = body.split_horizontally(w - 250);
         let columns = plots.split_evenly((1, self.models.len()));
-        for (area, (heading, model)) in columns.iter().zip(&self.models) {
-            self.draw_column(area, heading, model)?;
+        for (area, column) in columns.iter().zip(&self.models) {
+            self.draw_column(area, column)?;
         }
         draw_legend(&legend, &self.legend(), 60)
     }

@@ -1,0 +1,131 @@
+//! The text of `fdavar fit|diagnose` (issue 12, "text output a newcomer trips on"), line by line
+//! against the `--json` of the same command: every parameter with its unit and value, a term fitted
+//! to 0 as "not resolved" with its 2σ bound, an axis-valued parameter by its name, times in
+//! seconds, no `3.0000e1`, and a model that fails in time says so on its `failing tau` line.
+use serde_json::Value;
+use std::process::Command;
+
+/// The bundled recordings, from the repository root.
+const EFFECTS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/bags/effects");
+const SEED: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/bags/seed_2016");
+/// fit_error above which the CLI reports a failing model.
+const FAILING: f64 = 2.0;
+
+/// `fdavar ARGS` (text) and `fdavar ARGS --json`.
+fn text_and_json(args: &[&str]) -> (String, Value) {
+    let run = |extra: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_fdavar")).args(args).args(extra).output().unwrap();
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8(out.stdout).unwrap()
+    };
+    (run(&[]), serde_json::from_str(&run(&["--json"])).unwrap())
+}
+
+/// The text's block of one axis: from its header line to the next axis's.
+fn block<'a>(text: &'a str, axis: &str) -> Vec<&'a str> {
+    let mut lines = text.lines().skip_while(|l| !l.starts_with(&format!("{axis}  model ")));
+    let head = lines.next().unwrap_or_else(|| panic!("no {axis} in\n{text}"));
+    std::iter::once(head).chain(lines.take_while(|l| l.starts_with(' '))).collect()
+}
+
+/// The number that starts `s` (up to the first space or comma).
+fn leading_number(s: &str) -> f64 {
+    let end = s.find([' ', ',', ')']).unwrap_or(s.len());
+    s[..end].parse().unwrap_or_else(|e| panic!("{s:?}: {e}"))
+}
+
+/// Checks one parameter's text (what follows `name ` or `name = `) against its JSON object.
+fn check_param(axis: &str, name: &str, shown: &str, p: &Value) {
+    let unit = p["unit"].as_str().unwrap();
+    let what = format!("{axis} {name}: {shown:?} vs {p}");
+    match (&p["value"], p["sigma"].as_f64()) {
+        (Value::String(axis_name), _) => {
+            assert_eq!(unit, "axis", "{what}");
+            assert!(shown.starts_with(axis_name.as_str()), "{what}");
+        }
+        (v, Some(sigma)) if v.as_f64() == Some(0.0) => {
+            let bound = shown.strip_prefix("not resolved (< ").unwrap_or_else(|| panic!("{what}"));
+            // The bound 2σ to 3 significant digits, then the unit.
+            let b = leading_number(bound);
+            assert!((b - 2.0 * sigma).abs() <= 5e-3 * 2.0 * sigma, "{what}");
+            assert!(bound.contains(&format!(" {unit}, 2σ)")), "{what}");
+        }
+        (v, sigma) => {
+            let value = v.as_f64().unwrap();
+            // 5 significant digits.
+            assert!((leading_number(shown) - value).abs() <= 5e-5 * value.abs(), "{what}");
+            if let Some(sigma) = sigma {
+                let after = shown.split(" ± ").nth(1).unwrap_or_else(|| panic!("{what}"));
+                assert!((leading_number(after) - sigma).abs() <= 5e-3 * sigma, "{what}");
+            }
+            if unit != "1" {
+                assert!(shown.contains(&format!(" {unit}")), "{what}");
+            }
+        }
+    }
+}
+
+#[test]
+fn every_parameter_is_printed_with_its_unit_as_the_json_has_it() {
+    let (text, json) = text_and_json(&["diagnose", EFFECTS]);
+    let mut seen = (0, 0, 0, 0); // (coefficients, unresolved, axis-valued, seconds)
+    for a in json["axes"].as_array().unwrap() {
+        let axis = a["axis"].as_str().unwrap();
+        let lines = block(&text, axis);
+        for (effect, params) in a["coefficients"].as_object().unwrap() {
+            for (name, p) in params.as_object().unwrap() {
+                let line = lines
+                    .iter()
+                    .find(|l| l.split_whitespace().take(2).eq([effect.as_str(), name.as_str()]))
+                    .unwrap_or_else(|| panic!("{axis}: no line for {effect} {name}"));
+                let shown = line.trim_start()[effect.len()..].trim_start()[name.len()..].trim_start();
+                check_param(axis, name, shown, p);
+                seen.0 += 1;
+                seen.1 += usize::from(p["value"].as_f64() == Some(0.0));
+            }
+        }
+        for (i, s) in a["suggestions"].as_array().unwrap().iter().enumerate() {
+            let head = format!("  suggestion {}: add {} (", i + 1, s["effect"].as_str().unwrap());
+            let line = lines.iter().find(|l| l.starts_with(&head)).unwrap_or_else(|| panic!("{axis}: {head}"));
+            for (name, p) in s["params"].as_object().unwrap() {
+                let at = line.find(&format!("{name} = ")).unwrap_or_else(|| panic!("{axis}: {name} in {line}"));
+                check_param(axis, name, &line[at + name.len() + 3..], p);
+                seen.2 += usize::from(p["unit"] == "axis");
+                seen.3 += usize::from(p["unit"] == "s");
+            }
+        }
+    }
+    // The recording exercises each case: three coefficients per axis, some fitted to 0, the
+    // g_sensitivity source axis and a burst's start and end in seconds.
+    assert_eq!(seen.0, 18);
+    assert!(seen.1 > 0 && seen.2 > 0 && seen.3 > 0, "{seen:?}");
+    // No number with a positive exponent below 10⁶ (`3.0000e1`); sig() writes those plainly.
+    let positive_exponent = text
+        .split(|c: char| c.is_whitespace() || c == ',' || c == '(' || c == ')')
+        .find(|w| w.split_once('e').is_some_and(|(m, e)| m.parse::<f64>().is_ok() && e.parse::<u32>().is_ok_and(|e| e < 6)));
+    assert_eq!(positive_exponent, None, "{text}");
+}
+
+#[test]
+fn a_model_failing_in_time_says_so_on_its_failing_tau_line() {
+    let (text, json) = text_and_json(&["fit", SEED, "--model", "N,B,K"]);
+    let mut in_time = 0;
+    for a in json["axes"].as_array().unwrap() {
+        let axis = a["axis"].as_str().unwrap();
+        let lines = block(&text, axis);
+        let failing = lines.iter().find(|l| l.starts_with("  failing tau: ")).unwrap();
+        let fails = a["fit_error"].as_f64().unwrap() > FAILING;
+        match (a["failing_tau"].as_array().unwrap().is_empty(), fails) {
+            (true, true) => {
+                in_time += 1;
+                assert!(failing.contains("the failure is in time"), "{axis}: {failing}");
+                let spans = !a["failing_spans"].as_array().unwrap().is_empty();
+                assert_eq!(lines.iter().any(|l| l.starts_with("  failing in time: ")), spans, "{axis}");
+            }
+            (true, false) => assert_eq!(*failing, "  failing tau: none", "{axis}"),
+            (false, _) => assert!(!failing.contains("none"), "{axis}: {failing}"),
+        }
+    }
+    // The seed's recording: the noise triples for a third of the record, on every axis.
+    assert!(in_time > 0, "{text}");
+}

@@ -176,9 +176,11 @@ pub fn diagnose(
                             .map(|(y, v)| if v.is_finite() { y - c * (v - mean) } else { *y })
                             .collect();
                         let rest_input = AxisInput { rate: &rest, ..*input };
+                        // `screen` exists only when `base_noise` does: the transform of
+                        // `series` is reused, weighted by the refitted noise.
                         fit(&rest_input, &spectral_spec, registry, opts)
                             .ok()
-                            .and_then(|f| Whitened::new(&series, &spectrum_of(&f, registry, input.tau0)))
+                            .and_then(|f| base_noise.as_ref()?.with_noise(&spectrum_of(&f, registry, input.tau0)))
                             .and_then(|w| time_test(kind, &est, input, &series, &w))
                             .map_or(screen.test, |t| t.test)
                     }

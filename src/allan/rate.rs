@@ -86,22 +86,16 @@ pub fn oavar_rate_counted(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<Rat
         tau0,
     );
     let shape = Estimator::Oadev.shape();
-    factors
+    let usable: Vec<usize> = factors
         .iter()
-        .filter_map(|&m| {
-            if m == 0 || x.len() < 2 * m + 1 {
-                return None;
-            }
-            let (mut sum, mut terms, mut skipped) = (0.0, 0usize, 0usize);
-            for i in 0..x.len() - 2 * m {
-                if bad[i + 2 * m] == bad[i] {
-                    let d = x[i + 2 * m] - 2.0 * x[i + m] + x[i];
-                    sum += d * d;
-                    terms += 1;
-                } else {
-                    skipped += 1;
-                }
-            }
+        .copied()
+        .filter(|&m| m > 0 && x.len() > 2 * m)
+        .collect();
+    let sums = second_difference_sums(&x, &bad, &usable);
+    usable
+        .iter()
+        .zip(sums)
+        .filter_map(|(&m, Terms { sum, terms, skipped })| {
             if terms == 0 {
                 return None;
             }
@@ -125,6 +119,68 @@ pub fn oavar_rate_counted(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<Rat
             })
         })
         .collect()
+}
+
+/// The valid squared second differences of one factor: their sum, how many, how many left out.
+#[derive(Debug, Clone, Copy, Default)]
+struct Terms {
+    sum: f64,
+    terms: usize,
+    skipped: usize,
+}
+
+impl Terms {
+    /// Adds the term at `i` for factor `m` (left out when `bad` counts an invalid sample in it).
+    #[inline(always)]
+    fn add(&mut self, x: &[f64], bad: &[usize], m: usize, i: usize) {
+        if bad[i + 2 * m] == bad[i] {
+            let d = x[i + 2 * m] - 2.0 * x[i + m] + x[i];
+            self.sum += d * d;
+            self.terms += 1;
+        } else {
+            self.skipped += 1;
+        }
+    }
+}
+
+/// Factors summed side by side in one pass.
+const LANES: usize = 4;
+
+/// [`Terms`] of phase `x` at each factor of `factors` (each with x.len() > 2m), over
+/// i = 0 … x.len() − 2m − 1.
+///
+/// Why in lanes: one factor's sum is a chain of dependent additions, so a loop per factor waits on
+/// the adder's latency at every term; [`LANES`] factors in one pass keep that many independent
+/// chains in flight. Each sum still adds its terms in index order, one at a time: every result is
+/// the same number, bit for bit, as the plain loop per factor.
+fn second_difference_sums(x: &[f64], bad: &[usize], factors: &[usize]) -> Vec<Terms> {
+    let mut out = Vec::with_capacity(factors.len());
+    let mut groups = factors.chunks_exact(LANES);
+    for group in &mut groups {
+        let ms: [usize; LANES] = group.try_into().expect("chunks_exact gives LANES factors");
+        let mut acc = [Terms::default(); LANES];
+        // The largest factor of the group has the fewest terms: all lanes run up to there.
+        let common = x.len() - 2 * ms.iter().max().expect("LANES > 0");
+        for i in 0..common {
+            for (t, &m) in acc.iter_mut().zip(&ms) {
+                t.add(x, bad, m, i);
+            }
+        }
+        for (t, &m) in acc.iter_mut().zip(&ms) {
+            for i in common..x.len() - 2 * m {
+                t.add(x, bad, m, i);
+            }
+        }
+        out.extend(acc);
+    }
+    for &m in groups.remainder() {
+        let mut t = Terms::default();
+        for i in 0..x.len() - 2 * m {
+            t.add(x, bad, m, i);
+        }
+        out.push(t);
+    }
+    out
 }
 
 #[cfg(test)]

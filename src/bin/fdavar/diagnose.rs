@@ -5,7 +5,9 @@ use crate::fit::{load, outcome, print_json, title, write_fit, Common, ResultsOut
 use crate::Outcome;
 use anyhow::Context;
 use fdavar::model::output::{allan_figure, comparison_figure, AxisReport, Report};
-use fdavar::model::ModelSpec;
+use fdavar::analysis::Analysis;
+use fdavar::model::{Diagnosis, ModelSpec};
+use fdavar::signal::Axis;
 use fdavar::results::WholeRun;
 use std::io::Write;
 use std::path::PathBuf;
@@ -30,16 +32,43 @@ pub struct Args {
     pub common: Common,
 }
 
+/// The diagnosis of each axis of `axes`, on up to `jobs` threads (the same answers as one by one).
+pub fn diagnose_all(analysis: &mut Analysis, axes: &[Axis], jobs: usize) -> anyhow::Result<Vec<Diagnosis>> {
+    axes.iter()
+        .zip(analysis.diagnose_axes(axes, jobs))
+        .map(|(axis, d)| d.with_context(|| format!("cannot diagnose {axis}")))
+        .collect()
+}
+
+/// The readable table of one diagnosed axis: its fit, then the suggestions.
+pub fn write_diagnosis(out: &mut dyn Write, d: &Diagnosis) -> std::io::Result<()> {
+    write_fit(out, &d.fit)?;
+    if d.suggestions.is_empty() {
+        writeln!(out, "  suggestions: none")?;
+    }
+    for (i, s) in d.suggestions.iter().enumerate() {
+        let ps: Vec<String> = s
+            .params
+            .iter()
+            .map(|p| format!("{}={:.4e}", p.name, p.value))
+            .collect();
+        writeln!(
+            out,
+            "  suggestion {}: add {} ({}) -> fit_error {:.2}\n    {}",
+            i + 1,
+            s.effect,
+            ps.join(", "),
+            s.fit_error_after,
+            s.explanation
+        )?;
+    }
+    Ok(())
+}
+
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let mut results = ResultsOut::create(&args.common)?;
     let mut analysis = load(&args.bag, &args.model, args.common.topic.as_deref(), args.common.first, results.as_mut())?;
-    let mut diagnoses = Vec::new();
-    for axis in args.common.axes() {
-        let d = analysis
-            .diagnose(axis)
-            .with_context(|| format!("cannot diagnose {axis}"))?;
-        diagnoses.push(d);
-    }
+    let diagnoses = diagnose_all(&mut analysis, &args.common.axes(), crate::jobs(None))?;
     if let Some(results) = results {
         let (messages, until_s) = (analysis.messages(), analysis.duration_s().unwrap_or(0.0));
         let answers = diagnoses.iter().map(|d| (d.fit.axis, WholeRun::from_diagnosis(d, messages, until_s)));
@@ -53,27 +82,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     } else {
         let mut out = std::io::stdout().lock();
         for d in &diagnoses {
-            write_fit(&mut out, &d.fit).context("writing output")?;
-            if d.suggestions.is_empty() {
-                writeln!(out, "  suggestions: none").context("writing output")?;
-            }
-            for (i, s) in d.suggestions.iter().enumerate() {
-                let ps: Vec<String> = s
-                    .params
-                    .iter()
-                    .map(|p| format!("{}={:.4e}", p.name, p.value))
-                    .collect();
-                writeln!(
-                    out,
-                    "  suggestion {}: add {} ({}) -> fit_error {:.2}\n    {}",
-                    i + 1,
-                    s.effect,
-                    ps.join(", "),
-                    s.fit_error_after,
-                    s.explanation
-                )
-                .context("writing output")?;
-            }
+            write_diagnosis(&mut out, d).context("writing output")?;
         }
     }
     if let Some(dir) = &args.common.out {

@@ -9,7 +9,6 @@
 //! terms (N = terms + 2m phase points). This is exact without gaps and a slight overstatement of
 //! the EDF with them (fewer, not independent, terms are lost than a shorter record would lose).
 
-use super::naive::phase_from_rate;
 use super::{noise_id, with_confidence, AllanPoint, Estimator};
 
 /// An overlapping Allan estimate on rate data, with the count of terms left out.
@@ -64,16 +63,22 @@ pub fn oavar_rate_counted(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<Rat
     if !(tau0.is_finite() && tau0 > 0.0) {
         return Vec::new();
     }
-    let valid: Vec<f64> = rate.iter().copied().filter(|v| v.is_finite()).collect();
-    if valid.is_empty() {
+    let Some(reference) = rate.iter().copied().find(|v| v.is_finite()) else {
         return Vec::new();
-    }
-    let reference = valid[0];
-    let centred: Vec<f64> = rate
-        .iter()
-        .map(|&v| if v.is_finite() { v - reference } else { 0.0 })
-        .collect();
-    let x = phase_from_rate(&centred, tau0);
+    };
+    // Built in place, without centred or valid-only copies of the record (a whole-run record
+    // holds millions of samples): the same additions, in the same order, as [`super::naive::phase_from_rate`].
+    let phase_of = |values: &mut dyn Iterator<Item = f64>| {
+        let mut x = Vec::with_capacity(rate.len() + 1);
+        let mut acc = 0.0;
+        x.push(acc);
+        for y in values {
+            acc += tau0 * y;
+            x.push(acc);
+        }
+        x
+    };
+    let x = phase_of(&mut rate.iter().map(|&v| if v.is_finite() { v - reference } else { 0.0 }));
     // bad[k] = number of invalid samples among rate[..k].
     let bad: Vec<usize> = std::iter::once(0)
         .chain(rate.iter().scan(0usize, |acc, v| {
@@ -81,10 +86,11 @@ pub fn oavar_rate_counted(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<Rat
             Some(*acc)
         }))
         .collect();
-    let compact_phase = phase_from_rate(
-        &valid.iter().map(|v| v - reference).collect::<Vec<_>>(),
-        tau0,
-    );
+    // The phase of the valid samples joined: `x` itself when none is invalid.
+    let joined = (bad[rate.len()] > 0).then(|| {
+        phase_of(&mut rate.iter().filter(|v| v.is_finite()).map(|v| v - reference))
+    });
+    let compact_phase = joined.as_deref().unwrap_or(&x);
     let shape = Estimator::Oadev.shape();
     let usable: Vec<usize> = factors
         .iter()
@@ -101,7 +107,7 @@ pub fn oavar_rate_counted(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<Rat
             }
             let tau = m as f64 * tau0;
             let avar = sum / (2.0 * tau * tau * terms as f64);
-            let alpha = noise_id::identify(&compact_phase, m, shape.d, terms).map(|(a, _)| a);
+            let alpha = noise_id::identify(compact_phase, m, shape.d, terms).map(|(a, _)| a);
             let point = with_confidence(
                 m,
                 tau,

@@ -583,12 +583,12 @@ impl Whitened {
 fn tapered_diff_dft(y: &[f64], fft: &dyn Fft<f64>) -> Vec<Complex<f64>> {
     let mean = finite_mean(y);
     let clean = |v: f64| if v.is_finite() { v } else { mean };
-    let diffs: Vec<f64> = y.windows(2).map(|w| clean(w[1]) - clean(w[0])).collect();
-    let n = diffs.len();
-    let mut d: Vec<Complex<f64>> = diffs
-        .iter()
+    let n = y.len().saturating_sub(1);
+    let mut d: Vec<Complex<f64>> = y
+        .windows(2)
         .enumerate()
-        .map(|(j, &v)| {
+        .map(|(j, w)| {
+            let v = clean(w[1]) - clean(w[0]);
             let h = (std::f64::consts::PI * (j as f64 + 0.5) / n as f64).sin().powi(2);
             Complex::new(v * h, 0.0)
         })
@@ -596,6 +596,8 @@ fn tapered_diff_dft(y: &[f64], fft: &dyn Fft<f64>) -> Vec<Complex<f64>> {
     debug_assert_eq!(fft.len(), n);
     fft.process(&mut d);
     d.truncate(n.div_ceil(2));
+    // The caller keeps the half it uses for the whole diagnosis: give back the other half.
+    d.shrink_to_fit();
     d
 }
 

@@ -17,10 +17,9 @@ use crate::{Outcome, UsageError};
 use anyhow::Context;
 use fdavar::model::output::{AxisReport, Report};
 use fdavar::model::ModelSpec;
-use fdavar::pipeline::{AxisEvent, DavarConfig, Output, Pipeline, RowSummary, SigmaRefMode};
+use fdavar::pipeline::{AxisEvent, Output, Pipeline, RowSummary, SigmaRefMode};
 use fdavar::signal::{Axis, ImuSample, Irregularities};
 use serde::Serialize;
-use std::io::Write;
 use std::path::PathBuf;
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::sync::Arc;
@@ -117,15 +116,7 @@ fn run_rows(mut pipeline: Pipeline, rx: Receiver<Arc<[ImuSample]>>) -> Rows {
 }
 
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
-    let davar = match &args.params {
-        Some(p) => fdavar::params::load(p)
-            .map_err(|e| match e {
-                fdavar::params::ParamsError::Io { .. } => anyhow::Error::new(e),
-                other => anyhow::Error::new(UsageError(other.to_string())),
-            })
-            .with_context(|| format!("invalid parameters in {}", p.display()))?,
-        None => DavarConfig::default(),
-    };
+    let davar = crate::davar::params(args.params.as_deref())?;
     if davar.sigma_ref == SigmaRefMode::Record {
         return Err(UsageError(
             "--params: sigma_ref.mode 'record' needs a first read of the whole bag; `fdavar analyze` reads it once: use running, baseline or value (or `fdavar davar`)".into(),
@@ -188,47 +179,13 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         })?;
     } else {
         let mut out = std::io::stdout().lock();
-        write_rows(&mut out, tau0, &summaries, &events).context("writing output")?;
+        crate::davar::write_summary(&mut out, tau0, &summaries, &events).context("writing output")?;
         for d in &diagnoses {
             write_diagnosis(&mut out, d).context("writing output")?;
         }
     }
     let fits: Vec<_> = diagnoses.into_iter().map(|d| d.fit).collect();
     Ok(outcome(&analysis, &fits, args.strict, "the suggestions per axis name what would explain it"))
-}
-
-/// The rows' part of the text output.
-fn write_rows(
-    w: &mut dyn Write,
-    tau0: Option<f64>,
-    summaries: &[RowSummary],
-    events: &[AxisEvent],
-) -> std::io::Result<()> {
-    match tau0 {
-        Some(tau0) => writeln!(w, "tau0: {tau0} s")?,
-        None => writeln!(w, "tau0: unknown (too few samples)")?,
-    }
-    for s in summaries {
-        writeln!(
-            w,
-            "{}: {} rows, t = {:.3} .. {:.3} s, window {} .. {} samples",
-            s.axis, s.rows, s.first_s, s.last_s, s.window_min, s.window_max
-        )?;
-        for e in events.iter().filter(|e| e.axis == s.axis) {
-            let e = &e.event;
-            writeln!(
-                w,
-                "  noise changed from {:.3} s to {:.3} s (samples {} .. {}), level x{:.2}{}",
-                e.start_s,
-                e.end_s,
-                e.start_index,
-                e.end_index,
-                e.factor,
-                if e.closed { "" } else { " (still open at the end)" }
-            )?;
-        }
-    }
-    Ok(())
 }
 
 #[cfg(test)]

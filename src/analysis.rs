@@ -18,6 +18,8 @@
 
 use crate::model::effects::REGISTRY;
 use crate::model::record::{RecordBuilder, RecordError};
+use crate::model::diagnose::diagnose_planned;
+use crate::model::timedomain::Plans;
 use crate::model::{diagnose, fit, Diagnosis, FitError, FitOptions, FittedModel, ModelSpec};
 use crate::pipeline::{AxisRow, DavarConfig, Output, Pipeline, PipelineError};
 use crate::signal::{Axis, ImuSample, Irregularities, TemperatureSample};
@@ -219,8 +221,10 @@ impl Analysis {
             Ok(rec) => rec,
             Err(e) => return axes.iter().map(|_| Err(e.clone())).collect(),
         };
+        let plans = Plans::default();
         let one = |axis: Axis| -> Result<Diagnosis, AnalysisError> {
-            Ok(diagnose(&rec.input(axis), &models[axis.index()], REGISTRY, &opts)?)
+            let input = rec.input(axis);
+            Ok(diagnose_planned(&input, &models[axis.index()], REGISTRY, &opts, &plans)?)
         };
         let next = std::sync::atomic::AtomicUsize::new(0);
         let mut done: Vec<(usize, Result<Diagnosis, AnalysisError>)> = std::thread::scope(|scope| {

@@ -38,7 +38,7 @@ use crate::model::fit::{
 };
 use crate::model::measure::NoiseClass;
 use crate::model::spec::ModelSpec;
-use crate::model::timedomain::{self, NoiseSpectrum, Signature, Whitened};
+use crate::model::timedomain::{self, NoiseSpectrum, Plans, Signature, Whitened};
 use serde::{Deserialize, Serialize};
 
 /// Least gain in generalised χ² for a spectral effect with one free amplitude.
@@ -132,10 +132,25 @@ pub fn diagnose(
     registry: &[&'static dyn EffectKind],
     opts: &FitOptions,
 ) -> Result<Diagnosis, FitError> {
+    diagnose_planned(input, spec, registry, opts, &Plans::default())
+}
+
+/// [`diagnose`] with its transforms planned by `plans`: the axes of one record share them (the
+/// same answers; see [`Plans`]).
+///
+/// # Errors
+/// As [`diagnose`].
+pub fn diagnose_planned(
+    input: &AxisInput<'_>,
+    spec: &ModelSpec,
+    registry: &[&'static dyn EffectKind],
+    opts: &FitOptions,
+    plans: &Plans,
+) -> Result<Diagnosis, FitError> {
     let base = prepare(input, spec, registry, opts)?;
     let before = base.fit_spectral(spec, &base.spectral_kinds, opts)?;
     let series = cleaned(input, &before, registry);
-    let base_noise = Whitened::new(&series, &spectrum_of(&before, registry, input.tau0));
+    let base_noise = Whitened::planned(&series, &spectrum_of(&before, registry, input.tau0), plans);
     let spectral_spec = ModelSpec::from_ids(base.spectral_kinds.iter().map(|k| k.id()));
     let mut scored: Vec<(Suggestion, f64, FittedModel)> = Vec::new();
     let mut weighed = Vec::new();

@@ -14,7 +14,7 @@ use crate::model::effects::EffectKind;
 use crate::model::fit::{AxisInput, FitError};
 use crate::model::measure::NoiseClass;
 use rustfft::{num_complex::Complex, Fft, FftPlanner};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, PoisonError};
 use statrs::function::erf::erfc;
 
 /// What an estimator found: values in the effect's schema order, 1σ where known.
@@ -495,11 +495,16 @@ impl Whitened {
     /// Transforms the first differences of `y` (non-finite samples read as the mean) and weights
     /// them by `noise`. `None` for fewer than 16 samples or a spectrum without power.
     pub fn new(y: &[f64], noise: &NoiseSpectrum) -> Option<Self> {
+        Self::planned(y, noise, &Plans::default())
+    }
+
+    /// [`Whitened::new`] with its transform planned by `plans` (shared by the axes of a record).
+    pub fn planned(y: &[f64], noise: &NoiseSpectrum, plans: &Plans) -> Option<Self> {
         if y.len() < 17 {
             return None;
         }
         let len = y.len() - 1;
-        let fft = FftPlanner::new().plan_fft_forward(len);
+        let fft = plans.forward(len);
         let spectrum = tapered_diff_dft(y, fft.as_ref());
         Self::weighted(len, fft, spectrum, noise)
     }
@@ -574,6 +579,33 @@ impl Whitened {
         let coefficient = num / den;
         let sigma = var_num.sqrt() / den;
         Some(Regression { coefficient, sigma, t2: (coefficient / sigma).powi(2) })
+    }
+}
+
+/// Forward FFT plans by length, shared by the diagnoses of one record's axes.
+///
+/// Why: planning a transform of a length like 599·601 (Bluestein's chirp and its inner
+/// transform) costs more than the transform itself, and every axis of a record has the same
+/// length. A plan depends on the length only, so a shared one gives the same numbers.
+pub struct Plans(Mutex<FftPlanner<f64>>);
+
+impl Default for Plans {
+    fn default() -> Self {
+        Plans(Mutex::new(FftPlanner::new()))
+    }
+}
+
+impl std::fmt::Debug for Plans {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Plans").finish_non_exhaustive()
+    }
+}
+
+impl Plans {
+    /// The forward transform of `len` points (planned once per length).
+    pub fn forward(&self, len: usize) -> Arc<dyn Fft<f64>> {
+        // A planner is left consistent by a panic elsewhere: its cache only ever gains plans.
+        self.0.lock().unwrap_or_else(PoisonError::into_inner).plan_fft_forward(len)
     }
 }
 

@@ -18,6 +18,8 @@
 
 use crate::model::effects::REGISTRY;
 use crate::model::record::{RecordBuilder, RecordError};
+use crate::model::diagnose::diagnose_planned;
+use crate::model::timedomain::Plans;
 use crate::model::{diagnose, fit, Diagnosis, FitError, FitOptions, FittedModel, ModelSpec};
 use crate::pipeline::{AxisRow, DavarConfig, Output, Pipeline, PipelineError};
 use crate::signal::{Axis, ImuSample, Irregularities, TemperatureSample};
@@ -201,6 +203,54 @@ impl Analysis {
         let opts = self.fit;
         let rec = self.recording()?;
         Ok(diagnose(&rec.input(axis), &spec, REGISTRY, &opts)?)
+    }
+
+    /// [`Analysis::diagnose`] of each axis of `axes`, in that order, on up to `threads` threads.
+    ///
+    /// Why: the axes are independent, so a recording's six diagnoses can share the machine's
+    /// cores; each answer is the one [`Analysis::diagnose`] gives alone, bit for bit (every
+    /// diagnosis reads the same record and writes nothing shared). The offline tools use this;
+    /// the node keeps its own thread budget and diagnoses one axis at a time.
+    pub fn diagnose_axes(
+        &mut self,
+        axes: &[Axis],
+        threads: usize,
+    ) -> Vec<Result<Diagnosis, AnalysisError>> {
+        let (models, opts) = (self.models.clone(), self.fit);
+        let rec = match self.recording() {
+            Ok(rec) => rec,
+            Err(e) => return axes.iter().map(|_| Err(e.clone())).collect(),
+        };
+        let plans = Plans::default();
+        let one = |axis: Axis| -> Result<Diagnosis, AnalysisError> {
+            let input = rec.input(axis);
+            Ok(diagnose_planned(&input, &models[axis.index()], REGISTRY, &opts, &plans)?)
+        };
+        let next = std::sync::atomic::AtomicUsize::new(0);
+        let mut done: Vec<(usize, Result<Diagnosis, AnalysisError>)> = std::thread::scope(|scope| {
+            let workers: Vec<_> = (0..threads.clamp(1, axes.len().max(1)))
+                .map(|_| {
+                    scope.spawn(|| {
+                        // Each thread takes the next axis not yet taken: a slow axis (a long
+                        // candidate search) does not hold up the others.
+                        let mut mine = Vec::new();
+                        loop {
+                            let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                            let Some(&axis) = axes.get(i) else {
+                                return mine;
+                            };
+                            mine.push((i, one(axis)));
+                        }
+                    })
+                })
+                .collect();
+            workers
+                .into_iter()
+                .flat_map(|w| w.join().expect("a diagnosis thread panicked"))
+                .collect()
+        });
+        done.sort_by_key(|(i, _)| *i);
+        done.into_iter().map(|(_, d)| d).collect()
     }
 
     fn recording(&mut self) -> Result<&crate::model::record::Recording, AnalysisError> {

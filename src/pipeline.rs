@@ -165,6 +165,45 @@ pub struct Output {
     pub events: Vec<AxisEvent>,
 }
 
+/// What the rows of one axis amount to: how many, over which analysis times, which windows.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RowSummary {
+    /// The axis.
+    pub axis: Axis,
+    /// Rows made.
+    pub rows: u64,
+    /// Analysis time of the first and of the last row, seconds from the first sample.
+    pub first_s: f64,
+    /// See `first_s`.
+    pub last_s: f64,
+    /// Shortest window used, samples.
+    pub window_min: usize,
+    /// Longest window used, samples.
+    pub window_max: usize,
+}
+
+impl RowSummary {
+    /// The summary of the one row `r`.
+    pub fn of(r: &AxisRow) -> RowSummary {
+        RowSummary {
+            axis: r.axis,
+            rows: 1,
+            first_s: r.time_s,
+            last_s: r.time_s,
+            window_min: r.row.window,
+            window_max: r.row.window,
+        }
+    }
+
+    /// Counts one more row of the same axis, later than the others.
+    pub fn add(&mut self, r: &AxisRow) {
+        self.rows += 1;
+        self.last_s = r.time_s;
+        self.window_min = self.window_min.min(r.row.window);
+        self.window_max = self.window_max.max(r.row.window);
+    }
+}
+
 /// The whole-record variance of each axis ([`SigmaRefMode::Record`]); `None` where undefined.
 pub fn record_variances(samples: &[ImuSample]) -> [Option<f64>; 6] {
     let all = record_variances_in_two_passes(|f| {

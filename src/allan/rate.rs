@@ -9,7 +9,6 @@
 //! terms (N = terms + 2m phase points). This is exact without gaps and a slight overstatement of
 //! the EDF with them (fewer, not independent, terms are lost than a shorter record would lose).
 
-use super::naive::phase_from_rate;
 use super::{noise_id, with_confidence, AllanPoint, Estimator};
 
 /// An overlapping Allan estimate on rate data, with the count of terms left out.
@@ -64,16 +63,22 @@ pub fn oavar_rate_counted(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<Rat
     if !(tau0.is_finite() && tau0 > 0.0) {
         return Vec::new();
     }
-    let valid: Vec<f64> = rate.iter().copied().filter(|v| v.is_finite()).collect();
-    if valid.is_empty() {
+    let Some(reference) = rate.iter().copied().find(|v| v.is_finite()) else {
         return Vec::new();
-    }
-    let reference = valid[0];
-    let centred: Vec<f64> = rate
-        .iter()
-        .map(|&v| if v.is_finite() { v - reference } else { 0.0 })
-        .collect();
-    let x = phase_from_rate(&centred, tau0);
+    };
+    // Built in place, without centred or valid-only copies of the record (a whole-run record
+    // holds millions of samples): the same additions, in the same order, as [`super::naive::phase_from_rate`].
+    let phase_of = |values: &mut dyn Iterator<Item = f64>| {
+        let mut x = Vec::with_capacity(rate.len() + 1);
+        let mut acc = 0.0;
+        x.push(acc);
+        for y in values {
+            acc += tau0 * y;
+            x.push(acc);
+        }
+        x
+    };
+    let x = phase_of(&mut rate.iter().map(|&v| if v.is_finite() { v - reference } else { 0.0 }));
     // bad[k] = number of invalid samples among rate[..k].
     let bad: Vec<usize> = std::iter::once(0)
         .chain(rate.iter().scan(0usize, |acc, v| {
@@ -81,33 +86,28 @@ pub fn oavar_rate_counted(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<Rat
             Some(*acc)
         }))
         .collect();
-    let compact_phase = phase_from_rate(
-        &valid.iter().map(|v| v - reference).collect::<Vec<_>>(),
-        tau0,
-    );
+    // The phase of the valid samples joined: `x` itself when none is invalid.
+    let joined = (bad[rate.len()] > 0).then(|| {
+        phase_of(&mut rate.iter().filter(|v| v.is_finite()).map(|v| v - reference))
+    });
+    let compact_phase = joined.as_deref().unwrap_or(&x);
     let shape = Estimator::Oadev.shape();
-    factors
+    let usable: Vec<usize> = factors
         .iter()
-        .filter_map(|&m| {
-            if m == 0 || x.len() < 2 * m + 1 {
-                return None;
-            }
-            let (mut sum, mut terms, mut skipped) = (0.0, 0usize, 0usize);
-            for i in 0..x.len() - 2 * m {
-                if bad[i + 2 * m] == bad[i] {
-                    let d = x[i + 2 * m] - 2.0 * x[i + m] + x[i];
-                    sum += d * d;
-                    terms += 1;
-                } else {
-                    skipped += 1;
-                }
-            }
+        .copied()
+        .filter(|&m| m > 0 && x.len() > 2 * m)
+        .collect();
+    let sums = second_difference_sums(&x, &bad, &usable);
+    usable
+        .iter()
+        .zip(sums)
+        .filter_map(|(&m, Terms { sum, terms, skipped })| {
             if terms == 0 {
                 return None;
             }
             let tau = m as f64 * tau0;
             let avar = sum / (2.0 * tau * tau * terms as f64);
-            let alpha = noise_id::identify(&compact_phase, m, shape.d, terms).map(|(a, _)| a);
+            let alpha = noise_id::identify(compact_phase, m, shape.d, terms).map(|(a, _)| a);
             let point = with_confidence(
                 m,
                 tau,
@@ -125,6 +125,68 @@ pub fn oavar_rate_counted(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<Rat
             })
         })
         .collect()
+}
+
+/// The valid squared second differences of one factor: their sum, how many, how many left out.
+#[derive(Debug, Clone, Copy, Default)]
+struct Terms {
+    sum: f64,
+    terms: usize,
+    skipped: usize,
+}
+
+impl Terms {
+    /// Adds the term at `i` for factor `m` (left out when `bad` counts an invalid sample in it).
+    #[inline(always)]
+    fn add(&mut self, x: &[f64], bad: &[usize], m: usize, i: usize) {
+        if bad[i + 2 * m] == bad[i] {
+            let d = x[i + 2 * m] - 2.0 * x[i + m] + x[i];
+            self.sum += d * d;
+            self.terms += 1;
+        } else {
+            self.skipped += 1;
+        }
+    }
+}
+
+/// Factors summed side by side in one pass.
+const LANES: usize = 4;
+
+/// [`Terms`] of phase `x` at each factor of `factors` (each with x.len() > 2m), over
+/// i = 0 … x.len() − 2m − 1.
+///
+/// Why in lanes: one factor's sum is a chain of dependent additions, so a loop per factor waits on
+/// the adder's latency at every term; [`LANES`] factors in one pass keep that many independent
+/// chains in flight. Each sum still adds its terms in index order, one at a time: every result is
+/// the same number, bit for bit, as the plain loop per factor.
+fn second_difference_sums(x: &[f64], bad: &[usize], factors: &[usize]) -> Vec<Terms> {
+    let mut out = Vec::with_capacity(factors.len());
+    let mut groups = factors.chunks_exact(LANES);
+    for group in &mut groups {
+        let ms: [usize; LANES] = group.try_into().expect("chunks_exact gives LANES factors");
+        let mut acc = [Terms::default(); LANES];
+        // The largest factor of the group has the fewest terms: all lanes run up to there.
+        let common = x.len() - 2 * ms.iter().max().expect("LANES > 0");
+        for i in 0..common {
+            for (t, &m) in acc.iter_mut().zip(&ms) {
+                t.add(x, bad, m, i);
+            }
+        }
+        for (t, &m) in acc.iter_mut().zip(&ms) {
+            for i in common..x.len() - 2 * m {
+                t.add(x, bad, m, i);
+            }
+        }
+        out.extend(acc);
+    }
+    for &m in groups.remainder() {
+        let mut t = Terms::default();
+        for i in 0..x.len() - 2 * m {
+            t.add(x, bad, m, i);
+        }
+        out.push(t);
+    }
+    out
 }
 
 #[cfg(test)]

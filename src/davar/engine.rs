@@ -182,7 +182,7 @@ impl DavarEngine {
         let value = value.filter(|v| v.is_finite());
         let k = self.n;
         let slot = self.slot(k);
-        let next = self.slot(k + 1);
+        let next = self.wrap(slot + 1);
         self.raw[slot] = value.unwrap_or(f64::NAN);
         let (z, ok) = match value {
             Some(y) => {
@@ -198,7 +198,9 @@ impl DavarEngine {
         for i in 0..self.factors.len() {
             let m = self.factors[i] as u64;
             if self.n >= self.base + 2 * m {
-                self.append_term(i, self.n - 2 * m);
+                // Slots counted back from that of n (2m < L): no division per factor.
+                let (a, b) = (self.back(next, 2 * m as usize), self.back(next, m as usize));
+                self.append_term_at(i, a, b, next);
             }
         }
         if self.n - self.rebased_at >= self.len as u64 {
@@ -256,13 +258,32 @@ impl DavarEngine {
         (k % self.len as u64) as usize
     }
 
-    /// Records the second difference that starts at index `j` for factor number `i`.
-    fn append_term(&mut self, i: usize, j: u64) {
+    /// `slot` + 0 … L − 1 brought back into the ring (one comparison instead of a division: the
+    /// push loop runs this K times per sample).
+    fn wrap(&self, slot: usize) -> usize {
+        if slot >= self.len {
+            slot - self.len
+        } else {
+            slot
+        }
+    }
+
+    /// The slot `d` indices before `slot` (d ≤ L).
+    fn back(&self, slot: usize, d: usize) -> usize {
+        if slot >= d {
+            slot - d
+        } else {
+            slot + self.len - d
+        }
+    }
+
+    /// Records the second difference that starts at index j for factor number `i`, from the
+    /// slots a, b, c of indices j, j + m, j + 2m.
+    fn append_term_at(&mut self, i: usize, a: usize, b: usize, c: usize) {
         let m = self.factors[i] as u64;
-        let (a, b, c) = (self.slot(j), self.slot(j + m), self.slot(j + 2 * m));
         let d = self.sum1[c] - 2.0 * self.sum1[b] + self.sum1[a];
         let ok = self.valid[c] - self.valid[a] == 2 * m;
-        let next = self.slot(j + 1);
+        let next = self.wrap(a + 1);
         self.term_sum[i][next] = self.term_sum[i][a] + if ok { d * d } else { 0.0 };
         self.term_count[i][next] = self.term_count[i][a] + u64::from(ok);
     }
@@ -283,8 +304,9 @@ impl DavarEngine {
         self.sum1[first] = 0.0;
         self.sum2[first] = 0.0;
         self.valid[first] = 0;
-        for k in self.base..self.n {
-            let (slot, next) = (self.slot(k), self.slot(k + 1));
+        let mut slot = first;
+        for _ in self.base..self.n {
+            let next = self.wrap(slot + 1);
             let y = self.raw[slot];
             let (z, ok) = if y.is_finite() {
                 (y - reference, 1)
@@ -294,15 +316,18 @@ impl DavarEngine {
             self.sum1[next] = self.sum1[slot] + z;
             self.sum2[next] = self.sum2[slot] + z * z;
             self.valid[next] = self.valid[slot] + ok;
+            slot = next;
         }
         for i in 0..self.factors.len() {
             self.term_sum[i][first] = 0.0;
             self.term_count[i][first] = 0;
-            let m = self.factors[i] as u64;
-            let mut j = self.base;
-            while j + 2 * m <= self.n {
-                self.append_term(i, j);
+            let m = self.factors[i];
+            let (mut j, mut a) = (self.base, first);
+            while j + 2 * m as u64 <= self.n {
+                let (b, c) = (self.wrap(a + m), self.wrap(a + 2 * m));
+                self.append_term_at(i, a, b, c);
                 j += 1;
+                a = self.wrap(a + 1);
             }
         }
     }
@@ -337,7 +362,8 @@ impl DavarEngine {
     /// window holds fewer than two valid samples.
     fn row(&mut self, start: u64) -> Option<DavarRow> {
         let w = self.w as u64;
-        let (a, e) = (self.slot(start), self.slot(start + w));
+        let a = self.slot(start);
+        let e = self.wrap(a + w as usize);
         let valid = (self.valid[e] - self.valid[a]) as usize;
         if valid < 2 {
             return None;
@@ -356,7 +382,7 @@ impl DavarEngine {
                 break;
             }
             let total = self.w - 2 * m + 1;
-            let end = self.slot(start + total as u64);
+            let end = self.wrap(a + total);
             let terms = (self.term_count[i][end] - self.term_count[i][a]) as usize;
             excluded += total - terms;
             if terms == 0 {

@@ -38,7 +38,7 @@ use crate::model::fit::{
 };
 use crate::model::measure::NoiseClass;
 use crate::model::spec::ModelSpec;
-use crate::model::timedomain::{self, NoiseSpectrum, Signature, Whitened};
+use crate::model::timedomain::{self, NoiseSpectrum, Plans, Signature, Whitened};
 use serde::{Deserialize, Serialize};
 
 /// Least gain in generalised χ² for a spectral effect with one free amplitude.
@@ -132,10 +132,25 @@ pub fn diagnose(
     registry: &[&'static dyn EffectKind],
     opts: &FitOptions,
 ) -> Result<Diagnosis, FitError> {
+    diagnose_planned(input, spec, registry, opts, &Plans::default())
+}
+
+/// [`diagnose`] with its transforms planned by `plans`: the axes of one record share them (the
+/// same answers; see [`Plans`]).
+///
+/// # Errors
+/// As [`diagnose`].
+pub fn diagnose_planned(
+    input: &AxisInput<'_>,
+    spec: &ModelSpec,
+    registry: &[&'static dyn EffectKind],
+    opts: &FitOptions,
+    plans: &Plans,
+) -> Result<Diagnosis, FitError> {
     let base = prepare(input, spec, registry, opts)?;
     let before = base.fit_spectral(spec, &base.spectral_kinds, opts)?;
     let series = cleaned(input, &before, registry);
-    let base_noise = Whitened::new(&series, &spectrum_of(&before, registry, input.tau0));
+    let base_noise = Whitened::planned(&series, &spectrum_of(&before, registry, input.tau0), plans);
     let spectral_spec = ModelSpec::from_ids(base.spectral_kinds.iter().map(|k| k.id()));
     let mut scored: Vec<(Suggestion, f64, FittedModel)> = Vec::new();
     let mut weighed = Vec::new();
@@ -176,9 +191,11 @@ pub fn diagnose(
                             .map(|(y, v)| if v.is_finite() { y - c * (v - mean) } else { *y })
                             .collect();
                         let rest_input = AxisInput { rate: &rest, ..*input };
+                        // `screen` exists only when `base_noise` does: the transform of
+                        // `series` is reused, weighted by the refitted noise.
                         fit(&rest_input, &spectral_spec, registry, opts)
                             .ok()
-                            .and_then(|f| Whitened::new(&series, &spectrum_of(&f, registry, input.tau0)))
+                            .and_then(|f| base_noise.as_ref()?.with_noise(&spectrum_of(&f, registry, input.tau0)))
                             .and_then(|w| time_test(kind, &est, input, &series, &w))
                             .map_or(screen.test, |t| t.test)
                     }

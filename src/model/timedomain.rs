@@ -13,7 +13,8 @@
 use crate::model::effects::EffectKind;
 use crate::model::fit::{AxisInput, FitError};
 use crate::model::measure::NoiseClass;
-use rustfft::{num_complex::Complex, FftPlanner};
+use rustfft::{num_complex::Complex, Fft, FftPlanner};
+use std::sync::{Arc, Mutex, PoisonError};
 use statrs::function::erf::erfc;
 
 /// What an estimator found: values in the effect's schema order, 1σ where known.
@@ -476,6 +477,9 @@ pub struct Regression {
 pub struct Whitened {
     noise: NoiseSpectrum,
     len: usize,
+    /// The transform of `len` points, planned once: a driver's transform has the same length,
+    /// and planning (Bluestein's chirp for a length like 599·601) costs more than the transform.
+    fft: Arc<dyn Fft<f64>>,
     spectrum: Vec<Complex<f64>>,
     /// s_m of the formula, m = 0 … ⌈n/2⌉.
     untapered: Vec<f64>,
@@ -491,18 +495,39 @@ impl Whitened {
     /// Transforms the first differences of `y` (non-finite samples read as the mean) and weights
     /// them by `noise`. `None` for fewer than 16 samples or a spectrum without power.
     pub fn new(y: &[f64], noise: &NoiseSpectrum) -> Option<Self> {
+        Self::planned(y, noise, &Plans::default())
+    }
+
+    /// [`Whitened::new`] with its transform planned by `plans` (shared by the axes of a record).
+    pub fn planned(y: &[f64], noise: &NoiseSpectrum, plans: &Plans) -> Option<Self> {
         if y.len() < 17 {
             return None;
         }
-        let spectrum = tapered_diff_dft(y);
         let len = y.len() - 1;
+        let fft = plans.forward(len);
+        let spectrum = tapered_diff_dft(y, fft.as_ref());
+        Self::weighted(len, fft, spectrum, noise)
+    }
+
+    /// The same series weighted by another base noise: what [`Whitened::new`] gives on the same
+    /// `y`, without transforming it again.
+    pub fn with_noise(&self, noise: &NoiseSpectrum) -> Option<Self> {
+        Self::weighted(self.len, Arc::clone(&self.fft), self.spectrum.clone(), noise)
+    }
+
+    fn weighted(
+        len: usize,
+        fft: Arc<dyn Fft<f64>>,
+        spectrum: Vec<Complex<f64>>,
+        noise: &NoiseSpectrum,
+    ) -> Option<Self> {
         let untapered: Vec<f64> = (0..=spectrum.len())
             .map(|m| len as f64 * noise.diff_psd(m as f64 / (len as f64 * noise.tau0)) / (2.0 * noise.tau0))
             .collect();
         if untapered.iter().skip(1).any(|s| !(s.is_finite() && *s > 0.0)) {
             return None;
         }
-        Some(Whitened { noise: noise.clone(), len, spectrum, untapered })
+        Some(Whitened { noise: noise.clone(), len, fft, spectrum, untapered })
     }
 
     /// The base noise the series is weighted by.
@@ -526,7 +551,7 @@ impl Whitened {
         if x.len() != self.len + 1 {
             return None;
         }
-        let xs = tapered_diff_dft(x);
+        let xs = tapered_diff_dft(x, self.fft.as_ref());
         let bins = xs.len();
         let a: Vec<Complex<f64>> = (0..bins)
             .map(|k| if k == 0 { Complex::new(0.0, 0.0) } else { xs[k] / self.cov(k, 0) })
@@ -557,24 +582,54 @@ impl Whitened {
     }
 }
 
+/// Forward FFT plans by length, shared by the diagnoses of one record's axes.
+///
+/// Why: planning a transform of a length like 599·601 (Bluestein's chirp and its inner
+/// transform) costs more than the transform itself, and every axis of a record has the same
+/// length. A plan depends on the length only, so a shared one gives the same numbers.
+pub struct Plans(Mutex<FftPlanner<f64>>);
+
+impl Default for Plans {
+    fn default() -> Self {
+        Plans(Mutex::new(FftPlanner::new()))
+    }
+}
+
+impl std::fmt::Debug for Plans {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Plans").finish_non_exhaustive()
+    }
+}
+
+impl Plans {
+    /// The forward transform of `len` points (planned once per length).
+    pub fn forward(&self, len: usize) -> Arc<dyn Fft<f64>> {
+        // A planner is left consistent by a panic elsewhere: its cache only ever gains plans.
+        self.0.lock().unwrap_or_else(PoisonError::into_inner).plan_fft_forward(len)
+    }
+}
+
 /// DFT of the first differences of `y`, Hann-tapered (non-finite samples read as the mean of `y`),
-/// bins 0 … ⌈(n−1)/2⌉−1. Their mean is kept: it is the end-minus-start jump that the taper cancels
-/// (removing it would leave −¼ of the jump in bin 1).
-fn tapered_diff_dft(y: &[f64]) -> Vec<Complex<f64>> {
+/// bins 0 … ⌈(n−1)/2⌉−1, by `fft` (planned for n − 1 points). Their mean is kept: it is the
+/// end-minus-start jump that the taper cancels (removing it would leave −¼ of the jump in bin 1).
+fn tapered_diff_dft(y: &[f64], fft: &dyn Fft<f64>) -> Vec<Complex<f64>> {
     let mean = finite_mean(y);
     let clean = |v: f64| if v.is_finite() { v } else { mean };
-    let diffs: Vec<f64> = y.windows(2).map(|w| clean(w[1]) - clean(w[0])).collect();
-    let n = diffs.len();
-    let mut d: Vec<Complex<f64>> = diffs
-        .iter()
+    let n = y.len().saturating_sub(1);
+    let mut d: Vec<Complex<f64>> = y
+        .windows(2)
         .enumerate()
-        .map(|(j, &v)| {
+        .map(|(j, w)| {
+            let v = clean(w[1]) - clean(w[0]);
             let h = (std::f64::consts::PI * (j as f64 + 0.5) / n as f64).sin().powi(2);
             Complex::new(v * h, 0.0)
         })
         .collect();
-    FftPlanner::new().plan_fft_forward(n).process(&mut d);
+    debug_assert_eq!(fft.len(), n);
+    fft.process(&mut d);
     d.truncate(n.div_ceil(2));
+    // The caller keeps the half it uses for the whole diagnosis: give back the other half.
+    d.shrink_to_fit();
     d
 }
 

@@ -14,7 +14,7 @@
 
 use crate::Outcome;
 use anyhow::{bail, Context};
-use fdavar::pipeline::{AxisEvent, AxisRow, DavarConfig, Output, Pipeline, PolicyConfig, SigmaRefMode};
+use fdavar::pipeline::{AxisEvent, AxisRow, DavarConfig, Output, Pipeline, PolicyConfig, RowSummary, SigmaRefMode};
 use fdavar::report::davar::DavarFigures;
 use fdavar::signal::text::ColumnSelector;
 use fdavar::signal::{Axis, ImuSample};
@@ -264,16 +264,6 @@ impl Thinning {
     }
 }
 
-/// Per-axis facts for the summary.
-#[derive(Debug, Clone, Copy)]
-struct AxisSummary {
-    rows: u64,
-    first_s: f64,
-    last_s: f64,
-    window_min: usize,
-    window_max: usize,
-}
-
 /// Writes rows as they arrive, in the chosen format, and the closing part at the end.
 struct Printer<W: Write> {
     w: W,
@@ -283,7 +273,7 @@ struct Printer<W: Write> {
     /// Whether the opening part is written (at the first row or the end: a run that fails before
     /// either prints nothing).
     begun: bool,
-    axes: BTreeMap<Axis, AxisSummary>,
+    axes: BTreeMap<Axis, RowSummary>,
 }
 
 impl<W: Write> Printer<W> {
@@ -303,17 +293,10 @@ impl<W: Write> Printer<W> {
 
     fn row(&mut self, r: &AxisRow) -> std::io::Result<()> {
         self.begin()?;
-        let s = self.axes.entry(r.axis).or_insert(AxisSummary {
-            rows: 0,
-            first_s: r.time_s,
-            last_s: r.time_s,
-            window_min: r.row.window,
-            window_max: r.row.window,
-        });
-        s.rows += 1;
-        s.last_s = r.time_s;
-        s.window_min = s.window_min.min(r.row.window);
-        s.window_max = s.window_max.max(r.row.window);
+        self.axes
+            .entry(r.axis)
+            .and_modify(|s| s.add(r))
+            .or_insert_with(|| RowSummary::of(r));
         if !self.thinning.keep(r) {
             return Ok(());
         }
@@ -356,40 +339,49 @@ impl<W: Write> Printer<W> {
     }
 
     fn write_summary(&mut self, p: &Pipeline, events: &[AxisEvent]) -> std::io::Result<()> {
-        match p.tau0() {
-            Some(tau0) => writeln!(self.w, "tau0: {tau0} s")?,
-            None => writeln!(self.w, "tau0: unknown (too few samples)")?,
-        }
-        for (axis, s) in &self.axes {
-            writeln!(
-                self.w,
-                "{axis}: {} rows, t = {:.3} .. {:.3} s, window {} .. {} samples",
-                s.rows, s.first_s, s.last_s, s.window_min, s.window_max
-            )?;
-            for e in events.iter().filter(|e| e.axis == *axis) {
-                let e = &e.event;
-                writeln!(
-                    self.w,
-                    "  noise changed from {:.3} s to {:.3} s (samples {} .. {}), level x{:.2}{}",
-                    e.start_s,
-                    e.end_s,
-                    e.start_index,
-                    e.end_index,
-                    e.factor,
-                    if e.closed {
-                        ""
-                    } else {
-                        " (still open at the end)"
-                    }
-                )?;
-            }
-        }
-        Ok(())
+        let summaries: Vec<RowSummary> = self.axes.values().copied().collect();
+        write_summary(&mut self.w, p.tau0(), &summaries, events)
     }
 }
 
-fn validate(args: &Args) -> anyhow::Result<RunConfig> {
-    let mut config = match &args.params {
+/// The summary of the rows: τ0, then per axis its rows' count, time span and window range, and
+/// its change events (also `fdavar analyze`'s).
+pub fn write_summary(
+    w: &mut dyn Write,
+    tau0: Option<f64>,
+    summaries: &[RowSummary],
+    events: &[AxisEvent],
+) -> std::io::Result<()> {
+    match tau0 {
+        Some(tau0) => writeln!(w, "tau0: {tau0} s")?,
+        None => writeln!(w, "tau0: unknown (too few samples)")?,
+    }
+    for s in summaries {
+        writeln!(
+            w,
+            "{}: {} rows, t = {:.3} .. {:.3} s, window {} .. {} samples",
+            s.axis, s.rows, s.first_s, s.last_s, s.window_min, s.window_max
+        )?;
+        for e in events.iter().filter(|e| e.axis == s.axis) {
+            let e = &e.event;
+            writeln!(
+                w,
+                "  noise changed from {:.3} s to {:.3} s (samples {} .. {}), level x{:.2}{}",
+                e.start_s,
+                e.end_s,
+                e.start_index,
+                e.end_index,
+                e.factor,
+                if e.closed { "" } else { " (still open at the end)" }
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// The F-DAVAR settings of a `--params` file, the defaults without one.
+pub fn params(path: Option<&Path>) -> anyhow::Result<DavarConfig> {
+    match path {
         // A value the parameter table refuses is a usage error (exit 2, issue 13); an unreadable
         // file is not.
         Some(path) => fdavar::params::load(path)
@@ -397,9 +389,13 @@ fn validate(args: &Args) -> anyhow::Result<RunConfig> {
                 fdavar::params::ParamsError::Io { .. } => anyhow::Error::new(e),
                 other => anyhow::Error::new(crate::UsageError(other.to_string())),
             })
-            .with_context(|| format!("invalid parameters in {}", path.display()))?,
-        None => DavarConfig::default(),
-    };
+            .with_context(|| format!("invalid parameters in {}", path.display())),
+        None => Ok(DavarConfig::default()),
+    }
+}
+
+fn validate(args: &Args) -> anyhow::Result<RunConfig> {
+    let mut config = params(args.params.as_deref())?;
     if is_bag(&args.input) {
         if let Some(rate) = args.rate {
             bail!("--rate {rate} is for text files; a bag's period comes from its stamps (or the tau0 parameter)");

@@ -4,9 +4,11 @@
 use crate::fit::{load, outcome, print_json, title, write_files, write_fit, Common, ResultsOut, FAILING_FIT_ERROR};
 use crate::Outcome;
 use anyhow::Context;
+use fdavar::analysis::Analysis;
 use fdavar::model::output::{comparison_figure, AxisReport, Report};
+use fdavar::model::{Diagnosis, ModelSpec};
 use fdavar::report::fit::write_suggestions;
-use fdavar::model::ModelSpec;
+use fdavar::signal::Axis;
 use fdavar::results::WholeRun;
 use std::path::PathBuf;
 
@@ -30,16 +32,24 @@ pub struct Args {
     pub common: Common,
 }
 
+/// The diagnosis of each axis of `axes`, on up to `jobs` threads (the same answers as one by one).
+pub fn diagnose_all(analysis: &mut Analysis, axes: &[Axis], jobs: usize) -> anyhow::Result<Vec<Diagnosis>> {
+    axes.iter()
+        .zip(analysis.diagnose_axes(axes, jobs))
+        .map(|(axis, d)| d.with_context(|| format!("cannot diagnose {axis}")))
+        .collect()
+}
+
+/// The readable table of one diagnosed axis: its fit, then the suggestions.
+pub fn write_diagnosis(out: &mut dyn std::io::Write, d: &Diagnosis) -> std::io::Result<()> {
+    write_fit(out, &d.fit, FAILING_FIT_ERROR)?;
+    write_suggestions(out, d)
+}
+
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let mut results = ResultsOut::create(&args.common)?;
     let mut analysis = load(&args.bag, &args.model, args.common.topic.as_deref(), args.common.first, results.as_mut())?;
-    let mut diagnoses = Vec::new();
-    for axis in args.common.axes() {
-        let d = analysis
-            .diagnose(axis)
-            .with_context(|| format!("cannot diagnose {axis}"))?;
-        diagnoses.push(d);
-    }
+    let diagnoses = diagnose_all(&mut analysis, &args.common.axes(), crate::jobs(None))?;
     if let Some(results) = results {
         let (messages, until_s) = (analysis.messages(), analysis.duration_s().unwrap_or(0.0));
         let answers = diagnoses.iter().map(|d| (d.fit.axis, WholeRun::from_diagnosis(d, messages, until_s)));
@@ -53,8 +63,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     } else {
         let mut out = std::io::stdout().lock();
         for d in &diagnoses {
-            write_fit(&mut out, &d.fit, FAILING_FIT_ERROR).context("writing output")?;
-            write_suggestions(&mut out, d).context("writing output")?;
+            write_diagnosis(&mut out, d).context("writing output")?;
         }
     }
     write_files(&args.common, &args.bag, diagnoses.iter().map(|d| &d.fit))?;

@@ -265,7 +265,20 @@ pub fn load(
     model: &[String],
     topic: Option<&str>,
     first: Option<u64>,
+    results: Option<&mut ResultsOut>,
+) -> anyhow::Result<Analysis> {
+    load_with(path, model, topic, first, results, &mut |_| Ok(()))
+}
+
+/// [`load`], also handing every IMU message analysed, in the same order, to `each` (`fdavar
+/// analyze` feeds its F-DAVAR rows from the same single read of the bag).
+pub fn load_with(
+    path: &Path,
+    model: &[String],
+    topic: Option<&str>,
+    first: Option<u64>,
     mut results: Option<&mut ResultsOut>,
+    each: &mut dyn FnMut(&fdavar::signal::ImuSample) -> anyhow::Result<()>,
 ) -> anyhow::Result<Analysis> {
     let models = axis_models(model, ModelSpec::DEFAULT).context("invalid --model")?;
     let bag = BagReader::open(path).with_context(|| format!("cannot open {}", path.display()))?;
@@ -284,6 +297,7 @@ pub fn load(
                 if first.is_some_and(|n| analysis.messages() >= n) {
                     break;
                 }
+                each(&sample)?;
                 let rows = analysis.push(&sample).to_vec();
                 if let Some(r) = results.as_deref_mut() {
                     r.write_rows(&analysis, &rows)?;

@@ -5,6 +5,7 @@
 //! is the one place that maps outcomes to exit codes.
 
 mod allan;
+mod analyze;
 mod davar;
 mod diagnose;
 mod export;
@@ -78,6 +79,7 @@ enum Command {
     Davar(davar::Args),
     Fit(fit::Args),
     Diagnose(diagnose::Args),
+    Analyze(analyze::Args),
     Export(export::Args),
     Simulate(simulate::Args),
     #[cfg(feature = "ros")]
@@ -99,6 +101,7 @@ fn main() -> ExitCode {
         Command::Davar(a) => davar::run(a),
         Command::Fit(a) => fit::run(a),
         Command::Diagnose(a) => diagnose::run(a),
+        Command::Analyze(a) => analyze::run(a),
         Command::Export(a) => export::run(a),
         Command::Simulate(a) => simulate::run(a),
         #[cfg(feature = "ros")]
@@ -118,6 +121,13 @@ fn main() -> ExitCode {
             ExitCode::from(EXIT_ERROR)
         }
     }
+}
+
+/// Threads for independent axes: `asked`, or one per CPU.
+pub fn jobs(asked: Option<usize>) -> usize {
+    asked
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from))
+        .max(1)
 }
 
 /// A closed stdout (`fdavar … | head`) is not an error.

@@ -1,0 +1,210 @@
+//! `fdavar analyze BAG [--model SPEC] [--params FILE] [--axis A]... [--json] [--jobs N]`: the whole
+//! job in one read of the bag: F-DAVAR rows and change events of every axis, the noise model's
+//! fit and the diagnosis.
+//!
+//! Why one command: `fdavar davar` and `fdavar diagnose` each decode the bag, and each runs its
+//! axes one after the other (issue 11). Here the main thread decodes the bag once and grows the
+//! whole-run record (the same [`fdavar::analysis::Analysis`] `fdavar diagnose` fills, so the
+//! diagnosis is its answer, bit for bit); chunks of the same samples go to worker threads, each
+//! running the node's DAVAR [`Pipeline`] on its share of the axes (an axis's rows depend on its
+//! own values and the stamps only, so they are those of `fdavar davar`); then the axes are
+//! diagnosed in parallel. Memory: the record (bounded, see [`fdavar::model::record`]), the
+//! pipelines' rings and at most [`CHUNKS_IN_FLIGHT`] chunks per worker.
+
+use crate::diagnose::{diagnose_all, write_diagnosis};
+use crate::fit::{load_with, outcome, print_json};
+use crate::{Outcome, UsageError};
+use anyhow::Context;
+use fdavar::model::output::{AxisReport, Report};
+use fdavar::model::ModelSpec;
+use fdavar::pipeline::{AxisEvent, Output, Pipeline, RowSummary, SigmaRefMode};
+use fdavar::signal::{Axis, ImuSample, Irregularities};
+use serde::Serialize;
+use std::path::PathBuf;
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+use std::sync::Arc;
+
+/// Samples per chunk handed to the row workers (about 230 kB).
+const CHUNK: usize = 4096;
+/// Chunks queued per worker before the reader waits.
+const CHUNKS_IN_FLIGHT: usize = 8;
+
+/// Do the whole job on a recording: F-DAVAR rows and change events, model fit and diagnosis.
+///
+/// Reads the bag once. Prints per axis the rows' summary (count, time span, window range) and
+/// change events as `fdavar davar` does, then the fit and the suggestions as `fdavar diagnose`
+/// does (the same numbers). Axes run in parallel on --jobs threads. A failing model
+/// (fit_error > 2) is a warning, exit 0 (exit 3 with --strict); samples left out (gaps, bad
+/// stamps, NaN/Inf) exit 3.
+#[derive(Debug, clap::Args, PartialEq)]
+pub struct Args {
+    /// rosbag2 recording: a bag directory, a .mcap or a .db3.
+    pub bag: PathBuf,
+    /// Model to start from: comma-separated effect ids or aliases for every axis, or AXIS=SPEC for
+    /// one axis (repeatable; later values win). Default N,B,K.
+    #[arg(long, default_value = ModelSpec::DEFAULT, value_parser = crate::model_spec_arg)]
+    pub model: Vec<String>,
+    /// F-DAVAR settings: a ROS 2 parameter file like launch_params/default.yaml (default: the
+    /// node's defaults). sigma_ref.mode 'record' needs a second read of the bag: use `fdavar
+    /// davar` for it.
+    #[arg(long, value_name = "FILE")]
+    pub params: Option<PathBuf>,
+    /// Imu topic (default: the only sensor_msgs/msg/Imu topic of the bag).
+    #[arg(long)]
+    pub topic: Option<String>,
+    /// Axis to analyse (repeatable; default: all six).
+    #[arg(long)]
+    pub axis: Vec<Axis>,
+    /// Print one JSON object: `davar` (rows' summary, events, irregularities) and `axes` (the
+    /// object `fdavar diagnose --json` prints, member for member).
+    #[arg(long)]
+    pub json: bool,
+    /// Exit 3 when a model fails (fit_error > 2), for CI.
+    #[arg(long)]
+    pub strict: bool,
+    /// Threads for the axes (default: the number of CPUs), at least 1.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    pub jobs: Option<u16>,
+}
+
+/// The `davar` member of the JSON.
+#[derive(Debug, Serialize)]
+struct RowsReport {
+    tau0: Option<f64>,
+    axes: Vec<RowSummary>,
+    events: Vec<AxisEvent>,
+    irregularities: Irregularities,
+}
+
+#[derive(Debug, Serialize)]
+struct AnalyzeReport {
+    davar: RowsReport,
+    #[serde(flatten)]
+    diagnosis: Report,
+}
+
+/// What one row worker found.
+struct Rows {
+    pipeline: Pipeline,
+    summaries: Vec<RowSummary>,
+    events: Vec<AxisEvent>,
+}
+
+/// Runs `pipeline` on every chunk `rx` delivers, keeping the summary and events of its rows.
+fn run_rows(mut pipeline: Pipeline, rx: Receiver<Arc<[ImuSample]>>) -> Rows {
+    let mut out = Output::default();
+    let mut summaries: Vec<RowSummary> = Vec::new();
+    let mut events = Vec::new();
+    let mut take = |out: &mut Output| {
+        for r in out.rows.drain(..) {
+            match summaries.iter_mut().find(|s| s.axis == r.axis) {
+                Some(s) => s.add(&r),
+                None => summaries.push(RowSummary::of(&r)),
+            }
+        }
+        events.append(&mut out.events);
+    };
+    for chunk in rx {
+        for s in chunk.iter() {
+            pipeline.push(s, &mut out);
+            take(&mut out);
+        }
+    }
+    pipeline.finish(&mut out);
+    take(&mut out);
+    Rows { pipeline, summaries, events }
+}
+
+pub fn run(args: &Args) -> anyhow::Result<Outcome> {
+    let davar = crate::davar::params(args.params.as_deref())?;
+    if davar.sigma_ref == SigmaRefMode::Record {
+        return Err(UsageError(
+            "--params: sigma_ref.mode 'record' needs a first read of the whole bag; `fdavar analyze` reads it once: use running, baseline or value (or `fdavar davar`)".into(),
+        )
+        .into());
+    }
+    let axes = if args.axis.is_empty() { Axis::ALL.to_vec() } else { args.axis.clone() };
+    let jobs = crate::jobs(args.jobs.map(usize::from));
+    // Axis k goes to worker k mod jobs.
+    let groups: Vec<Vec<Axis>> = (0..jobs.min(axes.len()))
+        .map(|w| axes.iter().copied().skip(w).step_by(jobs).collect())
+        .collect();
+    let pipelines = groups
+        .iter()
+        .map(|g| Pipeline::new(davar.clone(), g, None))
+        .collect::<Result<Vec<_>, _>>()
+        .context("cannot start the DAVAR pipeline")?;
+    let (mut analysis, rows) = std::thread::scope(|scope| -> anyhow::Result<_> {
+        let (senders, workers): (Vec<SyncSender<Arc<[ImuSample]>>>, Vec<_>) = pipelines
+            .into_iter()
+            .map(|p| {
+                let (tx, rx) = sync_channel(CHUNKS_IN_FLIGHT);
+                (tx, scope.spawn(move || run_rows(p, rx)))
+            })
+            .unzip();
+        let mut chunk = Vec::with_capacity(CHUNK);
+        let send = |chunk: &mut Vec<ImuSample>| -> anyhow::Result<()> {
+            let shared: Arc<[ImuSample]> = chunk.drain(..).collect();
+            for tx in &senders {
+                tx.send(Arc::clone(&shared)).context("a DAVAR worker stopped")?;
+            }
+            Ok(())
+        };
+        let analysis = load_with(&args.bag, &args.model, args.topic.as_deref(), None, None, &mut |s| {
+            chunk.push(*s);
+            if chunk.len() == CHUNK {
+                send(&mut chunk)?;
+            }
+            Ok(())
+        })?;
+        send(&mut chunk)?;
+        drop(senders);
+        let rows: Vec<Rows> = workers
+            .into_iter()
+            .map(|w| w.join().expect("a DAVAR worker panicked"))
+            .collect();
+        Ok((analysis, rows))
+    })?;
+    let diagnoses = diagnose_all(&mut analysis, &axes, jobs)?;
+    let mut summaries: Vec<RowSummary> = rows.iter().flat_map(|r| r.summaries.iter().copied()).collect();
+    summaries.sort_by_key(|s| s.axis);
+    let mut events: Vec<AxisEvent> = rows.iter().flat_map(|r| r.events.iter().cloned()).collect();
+    // Per axis in axis order, each axis's events in time order (as `fdavar davar` lists them).
+    events.sort_by_key(|e| e.axis);
+    let tau0 = rows.first().and_then(|r| r.pipeline.tau0());
+    if args.json {
+        print_json(&AnalyzeReport {
+            davar: RowsReport { tau0, axes: summaries, events, irregularities: analysis.irregularities() },
+            diagnosis: Report { axes: diagnoses.iter().map(AxisReport::from_diagnosis).collect() },
+        })?;
+    } else {
+        let mut out = std::io::stdout().lock();
+        crate::davar::write_summary(&mut out, tau0, &summaries, &events).context("writing output")?;
+        for d in &diagnoses {
+            write_diagnosis(&mut out, d).context("writing output")?;
+        }
+    }
+    let fits: Vec<_> = diagnoses.into_iter().map(|d| d.fit).collect();
+    Ok(outcome(&analysis, &fits, args.strict, "the suggestions per axis name what would explain it"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Debug, Parser, PartialEq)]
+    struct Cli {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    #[test]
+    fn flags_parse() {
+        let cli = Cli::try_parse_from(["x", "b.mcap", "--jobs", "2", "--axis", "gyro_x", "--json"]).unwrap();
+        assert_eq!(cli.args.jobs, Some(2));
+        assert_eq!(cli.args.axis, vec![Axis::GyroX]);
+        assert!(Cli::try_parse_from(["x", "b.mcap", "--jobs", "0"]).is_err());
+        assert!(Cli::try_parse_from(["x", "b.mcap", "--model", "N,nope"]).is_err());
+    }
+}

@@ -157,14 +157,7 @@ fn samples(seed: u64, n: usize) -> (Logged<ImuSample>, Logged<TemperatureSample>
 fn independent_readers_read_fdavar_bags_exactly() {
     let Some(python) = common::python_with(MODULES, ".ci/python-bag.txt") else { return };
     let dir = tempfile::tempdir().unwrap();
-    for (k, compression) in [
-        ChunkCompression::Zstd,
-        ChunkCompression::Lz4,
-        ChunkCompression::None,
-    ]
-    .into_iter()
-    .enumerate()
-    {
+    for (k, compression) in ChunkCompression::ALL.into_iter().enumerate() {
         let (imu, temp) = samples(10 + k as u64, 300);
         let path = dir.path().join(format!("fdavar_{k}"));
         let mut w = BagWriter::create_with(

@@ -28,6 +28,12 @@ pub enum ChunkCompression {
     None,
 }
 
+impl ChunkCompression {
+    /// Every chunk compression fdavar writes (and reads).
+    pub const ALL: [ChunkCompression; 3] =
+        [ChunkCompression::Zstd, ChunkCompression::Lz4, ChunkCompression::None];
+}
+
 /// Options of [`BagWriter::create_with`].
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct WriterOptions {

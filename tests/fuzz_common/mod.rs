@@ -71,14 +71,7 @@ impl Fuzzer {
     /// `Imu`/`Temperature` messages. `dir` is a scratch directory (a tmpfs makes it faster).
     pub fn new(dir: &Path, seed: u64) -> Fuzzer {
         let mut seeds = Vec::new();
-        for (k, compression) in [
-            ChunkCompression::Zstd,
-            ChunkCompression::Lz4,
-            ChunkCompression::None,
-        ]
-        .into_iter()
-        .enumerate()
-        {
+        for (k, compression) in ChunkCompression::ALL.into_iter().enumerate() {
             seeds.push((Target::Mcap, mcap_seed(dir, k, compression)));
         }
         let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/rosbag2");

@@ -53,10 +53,10 @@ const AXES: [&str; 6] = [
     "gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z",
 ];
 
-/// VmRSS of a process, MB.
-fn rss_mb(pid: &str) -> Option<f64> {
+/// A memory figure of a process from /proc/PID/status (`VmRSS`, `VmHWM`: kB there), MB.
+fn status_mb(pid: &str, field: &str) -> Option<f64> {
     let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
+    let line = status.lines().find(|l| l.split(':').next() == Some(field))?;
     let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb / 1024.0)
 }
@@ -207,7 +207,7 @@ fn in_process(hours: f64, period_s: f64) -> bool {
             monitor.report(stamp_ns);
         }
         if (k + 1) % (60 * RATE_HZ) == 0 || k + 1 == total {
-            let rss = rss_mb(&pid).unwrap_or(f64::NAN);
+            let rss = status_mb(&pid, "VmRSS").unwrap_or(f64::NAN);
             curve.add(k + 1, rss, start.elapsed().as_secs_f64());
         }
     }
@@ -353,12 +353,26 @@ fn dds(hours: f64, period_s: f64, rate: f64, hostile: bool) -> bool {
         };
         count("received") + count("drops")
     };
+    // Drains /diagnostics every `pause` until `done` holds or `secs` pass; `each` runs before
+    // every pause.
+    let wait = |last: &mut Option<DiagnosticArray>,
+                secs: u64,
+                pause: Duration,
+                each: &mut dyn FnMut(),
+                done: &dyn Fn(&Option<DiagnosticArray>) -> bool| {
+        let by = Instant::now() + Duration::from_secs(secs);
+        while Instant::now() < by && !done(last) {
+            each();
+            std::thread::sleep(pause);
+            drain(last);
+        }
+    };
     let played = loop {
         std::thread::sleep(Duration::from_secs(1));
         drain(&mut last);
         curve.add(
             samples(&last),
-            rss_mb(&pid).unwrap_or(f64::NAN),
+            status_mb(&pid, "VmRSS").unwrap_or(f64::NAN),
             start.elapsed().as_secs_f64(),
         );
         if let Some(status) = player.try_wait().expect("wait for fdavar play") {
@@ -370,11 +384,8 @@ fn dds(hours: f64, period_s: f64, rate: f64, hostile: bool) -> bool {
     let mut sent = imu_sent(&said);
 
     // Every message analysed, then one /clock a period later: a last round over all of them.
-    let by = Instant::now() + Duration::from_secs(120);
-    while samples(&last) < total && Instant::now() < by {
-        std::thread::sleep(Duration::from_secs(1));
-        drain(&mut last);
-    }
+    let second = Duration::from_secs(1);
+    wait(&mut last, 120, second, &mut || {}, &|l| samples(l) >= total);
     // /diagnostics is stamped with the node's time: the last /clock it took.
     let node_time = last.as_ref().map_or(0, |a| a.header.stamp.to_ns());
     let end_clock = node_time + (period_s * 1e9) as i64 + 1_000_000_000;
@@ -390,28 +401,15 @@ fn dds(hours: f64, period_s: f64, rate: f64, hostile: bool) -> bool {
             .and_then(|v| v.parse().ok())
             .unwrap_or(0)
     };
-    let by = Instant::now() + Duration::from_secs(120);
-    while Instant::now() < by
-        && !last
-            .as_ref()
-            .is_some_and(|a| (0..6).all(|i| diagnosed(a, i) == total))
-    {
-        std::thread::sleep(Duration::from_secs(1));
-        drain(&mut last);
-    }
+    wait(&mut last, 120, second, &mut || {}, &|l| {
+        l.as_ref().is_some_and(|a| (0..6).all(|i| diagnosed(a, i) == total))
+    });
     curve.add(
         samples(&last),
-        rss_mb(&pid).unwrap_or(f64::NAN),
+        status_mb(&pid, "VmRSS").unwrap_or(f64::NAN),
         start.elapsed().as_secs_f64(),
     );
-    let hwm = std::fs::read_to_string(format!("/proc/{pid}/status"))
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("VmHWM:"))
-                .map(str::to_string)
-        })
-        .unwrap_or_default();
+    let hwm = status_mb(&pid, "VmHWM").unwrap_or(f64::NAN);
     let array = last.clone().expect("no /diagnostics received");
     let mut accounted = samples(&last) == sent;
     println!(
@@ -430,19 +428,16 @@ fn dds(hours: f64, period_s: f64, rate: f64, hostile: bool) -> bool {
         sent += imu_sent(&played_said(&mut flooder, flooded));
         // Node time moves on (sim time): the next publications count the flood.
         let before = array.header.stamp.to_ns();
-        let by = Instant::now() + Duration::from_secs(60);
         let mut k = 2;
-        while Instant::now() < by
-            && !(samples(&last) == sent
-                && last.as_ref().is_some_and(|a| a.header.stamp.to_ns() > before))
-        {
+        let mut tick = || {
             let _ = clock_out.publish(Clock {
                 clock: Time::from_ns(end_clock + k * 1_000_000_000).unwrap(),
             });
             k += 1;
-            std::thread::sleep(Duration::from_millis(500));
-            drain(&mut last);
-        }
+        };
+        wait(&mut last, 60, Duration::from_millis(500), &mut tick, &|l| {
+            samples(l) == sent && l.as_ref().is_some_and(|a| a.header.stamp.to_ns() > before)
+        });
         let after = last.as_ref().expect("diagnostics");
         let published = after.header.stamp.to_ns() > before;
         println!(
@@ -462,7 +457,7 @@ fn dds(hours: f64, period_s: f64, rate: f64, hostile: bool) -> bool {
         .to_string();
     println!(
         "{} in {play_wall:.0} s wall ({:.1}× real time); node counted {} samples, {drops} \
-         drops; node peak {hwm}",
+         drops; node peak (VmHWM) {hwm:.1} MB",
         said.lines()
             .find(|l| l.contains(" IMU "))
             .unwrap_or("")

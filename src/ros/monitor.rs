@@ -408,6 +408,15 @@ impl Monitor {
         log
     }
 
+    /// The stream's clock jumped (back for good, or forward past the longest gap): counted, logged
+    /// once, WARN at the next publication, and the rate is measured afresh.
+    fn reanchor(&mut self, log: &mut Vec<&'static str>) {
+        self.counters.reanchors += 1;
+        self.recent_reanchor = true;
+        log.extend(self.note(BadInput::Reanchor));
+        self.rate_window = None;
+    }
+
     /// Counts what is irregular about `sample`; true when it is a good sample (finite values, a
     /// stamp after the previous good one).
     fn classify(&mut self, sample: &ImuSample, log: &mut Vec<&'static str>) -> bool {
@@ -442,11 +451,8 @@ impl Monitor {
                     return false;
                 }
                 // The clock went back for good: start again from this stamp.
-                self.counters.reanchors += 1;
-                self.recent_reanchor = true;
-                log.extend(self.note(BadInput::Reanchor));
+                self.reanchor(log);
                 self.check = self.period.period().map(StampCheck::new);
-                self.rate_window = None;
             }
         }
         self.backwards_run = (0, None);
@@ -458,21 +464,14 @@ impl Monitor {
             }
             self.check = Some(check);
         }
-        if let Some(check) = self.check.as_mut() {
-            match check.check(sample.stamp_ns) {
-                StampClass::Gap { .. } => {
-                    self.counters.gaps += 1;
-                    log.extend(self.note(BadInput::Gap));
-                }
-                StampClass::Reanchored { .. } => {
-                    // Forward past MAX_GAP_SAMPLES (a backwards re-anchor returned above).
-                    self.counters.reanchors += 1;
-                    self.recent_reanchor = true;
-                    log.extend(self.note(BadInput::Reanchor));
-                    self.rate_window = None;
-                }
-                _ => {}
+        match self.check.as_mut().map(|c| c.check(sample.stamp_ns)) {
+            Some(StampClass::Gap { .. }) => {
+                self.counters.gaps += 1;
+                log.extend(self.note(BadInput::Gap));
             }
+            // Forward past MAX_GAP_SAMPLES (a backwards re-anchor was handled above).
+            Some(StampClass::Reanchored { .. }) => self.reanchor(log),
+            _ => {}
         }
         self.last_good_ns = Some(sample.stamp_ns);
         self.first_stamp_ns.get_or_insert(sample.stamp_ns);

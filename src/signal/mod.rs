@@ -315,8 +315,9 @@ impl StampCheck {
     }
 
     /// Classifies `stamp_ns`, counts it, and remembers it unless it was a duplicate or went
-    /// backwards; the [`REANCHOR_AFTER`]th backwards stamp in a row is remembered as the new
-    /// reference ([`StampClass::Reanchored`]).
+    /// backwards; the [`REANCHOR_AFTER`]th backwards stamp in a row, or a stamp more than
+    /// [`MAX_GAP_SAMPLES`] periods ahead, is remembered as the new reference
+    /// ([`StampClass::Reanchored`]).
     pub fn check(&mut self, stamp_ns: i64) -> StampClass {
         let Some(last) = self.last_ns else {
             self.last_ns = Some(stamp_ns);
@@ -324,7 +325,16 @@ impl StampCheck {
         };
         let class = match stamp_ns.cmp(&last) {
             std::cmp::Ordering::Equal => StampClass::Duplicate,
-            std::cmp::Ordering::Less => StampClass::Backwards,
+            std::cmp::Ordering::Less => {
+                self.backwards_run = backwards_run(self.backwards_run, stamp_ns);
+                if self.backwards_run.0 >= REANCHOR_AFTER {
+                    StampClass::Reanchored {
+                        dropped: u64::from(REANCHOR_AFTER - 1),
+                    }
+                } else {
+                    StampClass::Backwards
+                }
+            }
             std::cmp::Ordering::Greater => {
                 let dt = (stamp_ns - last) as f64;
                 if dt > 1.5 * self.period_ns {
@@ -332,12 +342,10 @@ impl StampCheck {
                         .saturating_sub(1)
                         .max(1);
                     if missing > MAX_GAP_SAMPLES {
-                        self.counts.reanchors += 1;
-                        self.backwards_run = (0, None);
-                        self.last_ns = Some(stamp_ns);
-                        return StampClass::Reanchored { dropped: 0 };
+                        StampClass::Reanchored { dropped: 0 }
+                    } else {
+                        StampClass::Gap { missing }
                     }
-                    StampClass::Gap { missing }
                 } else {
                     self.note_interval(dt);
                     StampClass::Next
@@ -346,28 +354,15 @@ impl StampCheck {
         };
         match class {
             StampClass::Duplicate => self.counts.duplicates += 1,
-            StampClass::Backwards => {
-                self.backwards_run = backwards_run(self.backwards_run, stamp_ns);
-                if self.backwards_run.0 >= REANCHOR_AFTER {
-                    self.counts.reanchors += 1;
-                    self.backwards_run = (0, None);
-                    self.last_ns = Some(stamp_ns);
-                    return StampClass::Reanchored {
-                        dropped: u64::from(REANCHOR_AFTER - 1),
-                    };
-                }
-                self.counts.backwards += 1;
-            }
-            StampClass::Gap { .. } => {
-                self.counts.gaps += 1;
-                self.backwards_run = (0, None);
-                self.last_ns = Some(stamp_ns);
-            }
-            StampClass::Next => {
-                self.backwards_run = (0, None);
-                self.last_ns = Some(stamp_ns);
-            }
-            StampClass::Reanchored { .. } => unreachable!("not a comparison result"),
+            StampClass::Backwards => self.counts.backwards += 1,
+            StampClass::Gap { .. } => self.counts.gaps += 1,
+            StampClass::Reanchored { .. } => self.counts.reanchors += 1,
+            StampClass::Next => {}
+        }
+        // A stamp that moves the stream on is the new reference and ends a backwards run.
+        if !matches!(class, StampClass::Duplicate | StampClass::Backwards) {
+            self.backwards_run = (0, None);
+            self.last_ns = Some(stamp_ns);
         }
         class
     }

@@ -12,7 +12,7 @@
 //! pipelines' rings and at most [`CHUNKS_IN_FLIGHT`] chunks per worker.
 
 use crate::diagnose::{diagnose_all, write_diagnosis};
-use crate::fit::{load_with, outcome, print_json};
+use crate::fit::{load_with, outcome, print_json, Selection};
 use crate::{Outcome, UsageError};
 use anyhow::Context;
 use fdavar::model::output::{AxisReport, Report};
@@ -49,12 +49,8 @@ pub struct Args {
     /// davar` for it.
     #[arg(long, value_name = "FILE")]
     pub params: Option<PathBuf>,
-    /// Imu topic (default: the only sensor_msgs/msg/Imu topic of the bag).
-    #[arg(long)]
-    pub topic: Option<String>,
-    /// Axis to analyse (repeatable; default: all six).
-    #[arg(long)]
-    pub axis: Vec<Axis>,
+    #[command(flatten)]
+    pub selection: Selection,
     /// Print one JSON object: `davar` (rows' summary, events, irregularities) and `axes` (the
     /// object `fdavar diagnose --json` prints, member for member).
     #[arg(long)]
@@ -123,7 +119,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         )
         .into());
     }
-    let axes = if args.axis.is_empty() { Axis::ALL.to_vec() } else { args.axis.clone() };
+    let axes = args.selection.axes();
     let jobs = crate::jobs(args.jobs.map(usize::from));
     // Axis k goes to worker k mod jobs.
     let groups: Vec<Vec<Axis>> = (0..jobs.min(axes.len()))
@@ -150,7 +146,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             }
             Ok(())
         };
-        let analysis = load_with(&args.bag, &args.model, args.topic.as_deref(), None, None, &mut |s| {
+        let analysis = load_with(&args.bag, &args.model, args.selection.topic.as_deref(), None, None, &mut |s| {
             chunk.push(*s);
             if chunk.len() == CHUNK {
                 send(&mut chunk)?;
@@ -203,7 +199,7 @@ mod tests {
     fn flags_parse() {
         let cli = Cli::try_parse_from(["x", "b.mcap", "--jobs", "2", "--axis", "gyro_x", "--json"]).unwrap();
         assert_eq!(cli.args.jobs, Some(2));
-        assert_eq!(cli.args.axis, vec![Axis::GyroX]);
+        assert_eq!(cli.args.selection.axis, vec![Axis::GyroX]);
         assert!(Cli::try_parse_from(["x", "b.mcap", "--jobs", "0"]).is_err());
         assert!(Cli::try_parse_from(["x", "b.mcap", "--model", "N,nope"]).is_err());
     }

@@ -48,8 +48,8 @@ pub fn write_diagnosis(out: &mut dyn std::io::Write, d: &Diagnosis) -> std::io::
 
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let mut results = ResultsOut::create(&args.common)?;
-    let mut analysis = load(&args.bag, &args.model, args.common.topic.as_deref(), args.common.first, results.as_mut())?;
-    let diagnoses = diagnose_all(&mut analysis, &args.common.axes(), crate::jobs(None))?;
+    let mut analysis = load(&args.bag, &args.model, args.common.selection.topic.as_deref(), args.common.first, results.as_mut())?;
+    let diagnoses = diagnose_all(&mut analysis, &args.common.selection.axes(), crate::jobs(None))?;
     if let Some(results) = results {
         let (messages, until_s) = (analysis.messages(), analysis.duration_s().unwrap_or(0.0));
         let answers = diagnoses.iter().map(|d| (d.fit.axis, WholeRun::from_diagnosis(d, messages, until_s)));

@@ -42,15 +42,33 @@ pub struct Args {
     pub common: Common,
 }
 
-/// Flags `fit` and `diagnose` share.
+/// Which Imu topic and axes of a bag: flags `fit`, `diagnose` and `analyze` share.
 #[derive(Debug, clap::Args, PartialEq)]
-pub struct Common {
+pub struct Selection {
     /// Imu topic (default: the only sensor_msgs/msg/Imu topic of the bag).
     #[arg(long)]
     pub topic: Option<String>,
     /// Axis to analyse (repeatable; default: all six).
     #[arg(long)]
     pub axis: Vec<Axis>,
+}
+
+impl Selection {
+    /// The axes asked for, all six by default.
+    pub fn axes(&self) -> Vec<Axis> {
+        if self.axis.is_empty() {
+            Axis::ALL.to_vec()
+        } else {
+            self.axis.clone()
+        }
+    }
+}
+
+/// Flags `fit` and `diagnose` share.
+#[derive(Debug, clap::Args, PartialEq)]
+pub struct Common {
+    #[command(flatten)]
+    pub selection: Selection,
     /// Print one JSON object (docs/design.md §7) instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -85,22 +103,12 @@ pub struct Common {
     pub mcap_every: Option<f64>,
 }
 
-impl Common {
-    /// The axes asked for, all six by default.
-    pub fn axes(&self) -> Vec<Axis> {
-        if self.axis.is_empty() {
-            Axis::ALL.to_vec()
-        } else {
-            self.axis.clone()
-        }
-    }
-}
 
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let mut results = ResultsOut::create(&args.common)?;
-    let mut analysis = load(&args.bag, &args.model, args.common.topic.as_deref(), args.common.first, results.as_mut())?;
+    let mut analysis = load(&args.bag, &args.model, args.common.selection.topic.as_deref(), args.common.first, results.as_mut())?;
     let mut fits = Vec::new();
-    for axis in args.common.axes() {
+    for axis in args.common.selection.axes() {
         let f = analysis
             .fit(axis)
             .with_context(|| format!("cannot fit {axis}"))?;
@@ -224,7 +232,7 @@ impl ResultsOut {
             writer,
             path: path.clone(),
             davar,
-            axes: common.axes(),
+            axes: common.selection.axes(),
             thinning: Thinning::new(common.mcap_every),
         }))
     }

@@ -39,6 +39,7 @@ use crate::model::fit::{
 use crate::model::measure::NoiseClass;
 use crate::model::spec::ModelSpec;
 use crate::model::timedomain::{self, NoiseSpectrum, Plans, Signature, Whitened};
+use std::borrow::Cow;
 use serde::{Deserialize, Serialize};
 
 /// Least gain in generalised χ² for a spectral effect with one free amplitude.
@@ -420,12 +421,17 @@ fn spectrum_of(fit: &FittedModel, registry: &[&'static dyn EffectKind], tau0: f6
 }
 
 /// The rate with the model's own time-domain terms removed (what its spectral terms describe).
-fn cleaned(input: &AxisInput<'_>, fit: &FittedModel, registry: &[&'static dyn EffectKind]) -> Vec<f64> {
-    let mut series = input.rate.to_vec();
+fn cleaned<'a>(
+    input: &AxisInput<'a>,
+    fit: &FittedModel,
+    registry: &[&'static dyn EffectKind],
+) -> Cow<'a, [f64]> {
+    // Copied only when there is something to remove: a whole-run record is large.
+    let mut series = Cow::Borrowed(input.rate);
     for term in fit.terms.iter().filter(|t| t.domain == Domain::TimeDomain) {
         if let Some(kind) = registry.iter().find(|k| k.id() == term.effect) {
             let values: Vec<f64> = term.params.iter().map(|p| p.value).collect();
-            timedomain::remove_values(*kind, &values, input, &mut series);
+            timedomain::remove_values(*kind, &values, input, series.to_mut());
         }
     }
     series

@@ -520,7 +520,8 @@ pub fn prepare(
     let (time_kinds, spectral_kinds): (Vec<_>, Vec<_>) = kinds
         .into_iter()
         .partition(|k| k.domain() == Domain::TimeDomain);
-    let mut series = input.rate.to_vec();
+    // Copied only when a time-domain term is removed from it: a whole-run record is large.
+    let mut series = std::borrow::Cow::Borrowed(input.rate);
     let mut time_terms = Vec::new();
     let mut events: Vec<Event> = input
         .events
@@ -533,7 +534,7 @@ pub fn prepare(
     for kind in timedomain::in_estimation_order(&time_kinds) {
         let est = timedomain::estimate(kind, input, &series)?;
         let effect = kind.build(&est.values)?;
-        timedomain::remove(kind, &est, input, &mut series);
+        timedomain::remove(kind, &est, input, series.to_mut());
         if est.is_event {
             events.push(Event {
                 effect: kind.id().into(),

@@ -56,12 +56,13 @@ pub fn identify(x: &[f64], m: usize, d_max: u32, terms: usize) -> Option<(i32, N
         return None;
     }
     let min_alpha = 2 - 2 * d_max as i32;
-    let decimated: Vec<f64> = x.iter().step_by(m).copied().collect();
-    if decimated.iter().all(|&v| v == decimated[0]) {
+    // The decimated phase is read in place: a whole-run record holds millions of samples.
+    let decimated = || x.iter().step_by(m).copied();
+    if decimated().all(|v| Some(v) == x.first().copied()) {
         return None;
     }
-    let (alpha, method) = if decimated.len() >= ACF_MIN_POINTS {
-        (lag1_acf_alpha(&decimated, d_max)?, NoiseIdMethod::Lag1Acf)
+    let (alpha, method) = if x.len().div_ceil(m) >= ACF_MIN_POINTS {
+        (lag1_acf_alpha(decimated(), d_max)?, NoiseIdMethod::Lag1Acf)
     } else {
         (
             b1_alpha(x, m, terms + d_max as usize - 1)?,
@@ -84,9 +85,17 @@ pub fn identify(x: &[f64], m: usize, d_max: u32, terms: usize) -> Option<(i32, N
 /// ```
 /// where z is the detrended frequency differenced d times, d growing from 0 until δ < 0.25 or
 /// d = d_max.
-fn lag1_acf_alpha(decimated: &[f64], d_max: u32) -> Option<i32> {
-    let freq: Vec<f64> = decimated.windows(2).map(|w| w[1] - w[0]).collect();
-    let mut z = detrend_linear(&freq)?;
+fn lag1_acf_alpha(mut decimated: impl Iterator<Item = f64>, d_max: u32) -> Option<i32> {
+    // One buffer: the frequency averages, detrended, then differenced in place.
+    let mut prev = decimated.next()?;
+    let mut z: Vec<f64> = decimated
+        .map(|v| {
+            let d = v - prev;
+            prev = v;
+            d
+        })
+        .collect();
+    detrend_linear(&mut z)?;
     let mut d = 0u32;
     loop {
         let r1 = lag1_acf(&z)?;
@@ -94,7 +103,10 @@ fn lag1_acf_alpha(decimated: &[f64], d_max: u32) -> Option<i32> {
         if delta < 0.25 || d >= d_max {
             return Some(-(2.0 * delta).round() as i32 - 2 * d as i32);
         }
-        z = z.windows(2).map(|w| w[1] - w[0]).collect();
+        for i in 1..z.len() {
+            z[i - 1] = z[i] - z[i - 1];
+        }
+        z.pop();
         d += 1;
     }
 }
@@ -115,7 +127,7 @@ fn lag1_acf(z: &[f64]) -> Option<f64> {
 /// ```text
 /// t_i = i − (n−1)/2,   slope = Σ t_i·v_i / Σ t_i²,   v_i ← v_i − v̄ − slope·t_i
 /// ```
-fn detrend_linear(v: &[f64]) -> Option<Vec<f64>> {
+fn detrend_linear(v: &mut [f64]) -> Option<()> {
     let n = v.len();
     if n < 3 {
         return None;
@@ -130,12 +142,10 @@ fn detrend_linear(v: &[f64]) -> Option<Vec<f64>> {
             (stv + t * (y - mean), stt + t * t)
         });
     let slope = stv / stt;
-    Some(
-        v.iter()
-            .enumerate()
-            .map(|(i, &y)| y - mean - slope * (i as f64 - centre))
-            .collect(),
-    )
+    for (i, y) in v.iter_mut().enumerate() {
+        *y = *y - mean - slope * (i as f64 - centre);
+    }
+    Some(())
 }
 
 /// B1 method: μ from the ratio of the standard variance of m-averages to their Allan variance,

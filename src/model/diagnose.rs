@@ -468,12 +468,17 @@ fn spectrum_at_bound(fit: &FittedModel, registry: &[&'static dyn EffectKind], ta
 }
 
 /// The rate with the model's own time-domain terms removed (what its spectral terms describe).
-fn cleaned(input: &AxisInput<'_>, fit: &FittedModel, registry: &[&'static dyn EffectKind]) -> Vec<f64> {
-    let mut series = input.rate.to_vec();
+fn cleaned<'a>(
+    input: &AxisInput<'a>,
+    fit: &FittedModel,
+    registry: &[&'static dyn EffectKind],
+) -> Cow<'a, [f64]> {
+    // Copied only when there is something to remove: a whole-run record is large.
+    let mut series = Cow::Borrowed(input.rate);
     for term in fit.terms.iter().filter(|t| t.domain == Domain::TimeDomain) {
         if let Some(kind) = registry.iter().find(|k| k.id() == term.effect) {
             let values: Vec<f64> = term.params.iter().map(|p| p.value).collect();
-            timedomain::remove_values(*kind, &values, input, &mut series);
+            timedomain::remove_values(*kind, &values, input, series.to_mut());
         }
     }
     series

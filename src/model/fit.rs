@@ -543,7 +543,8 @@ pub fn prepare(
     let (time_kinds, spectral_kinds): (Vec<_>, Vec<_>) = kinds
         .into_iter()
         .partition(|k| k.domain() == Domain::TimeDomain);
-    let mut series = input.rate.to_vec();
+    // Copied only when a time-domain term is removed from it: a whole-run record is large.
+    let mut series = std::borrow::Cow::Borrowed(input.rate);
     let mut time_terms = Vec::new();
     let mut events: Vec<Event> = input
         .events
@@ -557,7 +558,7 @@ pub fn prepare(
     let mut estimates = Vec::with_capacity(order.len());
     for &kind in &order {
         let est = timedomain::estimate(kind, input, &series, None)?;
-        timedomain::remove(kind, &est, input, &mut series);
+        timedomain::remove(kind, &est, input, series.to_mut());
         estimates.push(est);
     }
     // A regression (on a driver or on time) is estimated again by GLS against the noise of the
@@ -566,14 +567,14 @@ pub fn prepare(
     let regression = |e: &timedomain::Estimate| matches!(e.signature, Signature::Driven | Signature::Trend);
     if estimates.iter().any(regression) {
         if let Some(noise) = noise_of(&series, input.tau0, &spectral_kinds, opts) {
-            series = input.rate.to_vec();
+            series = std::borrow::Cow::Borrowed(input.rate);
             for (&kind, est) in order.iter().zip(estimates.iter_mut()) {
                 if regression(est) {
                     if let Ok(gls) = timedomain::estimate(kind, input, &series, Some(&noise)) {
                         *est = gls;
                     }
                 }
-                timedomain::remove(kind, est, input, &mut series);
+                timedomain::remove(kind, est, input, series.to_mut());
             }
         }
     }

@@ -246,6 +246,9 @@ pub fn diagnose_planned(
         }
     }
     best_first(&mut scored, registry, &regressed);
+    if let Some(w) = &base_noise {
+        one_drift_one_driver(&mut scored, registry, &regressed, input, &series, w.noise());
+    }
     let (suggestions, after) = scored.into_iter().map(|(s, _, after)| (s, after)).unzip();
     Ok(Diagnosis {
         fit: before,
@@ -440,6 +443,38 @@ fn spectrum_of(fit: &FittedModel, registry: &[&'static dyn EffectKind], tau0: f6
     let taus: Vec<f64> = fit.points.iter().map(|p| p.tau).collect();
     let curves = fit.spectral_curves(registry);
     NoiseSpectrum::from_curves(tau0, &taus, curves.iter().map(|(c, v)| (*c, v.as_slice())))
+}
+
+/// A drift suggested both as a line in time (a regression on time: the rate ramp) and as a
+/// temperature coefficient is one drift: the regressor that explains it better comes first.
+///
+/// Both are fitted the same way — the block-mean GLS of [`timedomain::block_regression`], one
+/// regressor and an intercept each, against the same base noise — and compared by t². Why not
+/// their own tests: the temperature test works on tapered first differences, which cancel the
+/// linear part of a warm-up by design, while the trend test sees all of it, so a warm-up scored
+/// higher as a ramp (measured: 4 of 20 temperature recordings at 16σ named `ramp` first).
+fn one_drift_one_driver<T>(
+    scored: &mut [(Suggestion, f64, T)],
+    registry: &[&'static dyn EffectKind],
+    regressed: &[&str],
+    input: &AxisInput<'_>,
+    series: &[f64],
+    noise: &NoiseSpectrum,
+) {
+    let evidence = |s: &Suggestion| registry.iter().find(|k| k.id() == s.effect).map(|k| k.evidence());
+    let on_time = scored
+        .iter()
+        .position(|(s, ..)| regressed.contains(&s.effect.as_str()) && evidence(s) == Some(Evidence::None));
+    let on_temperature = scored.iter().position(|(s, ..)| evidence(s) == Some(Evidence::Temperature));
+    let (Some(i), Some(j), Some(temperature)) = (on_time, on_temperature, input.temperature_c) else {
+        return;
+    };
+    let t2 = |x| timedomain::block_regression(series, x, noise).map_or(0.0, |r| r.t2);
+    let temperature_first = t2(Some(temperature)) >= t2(None);
+    let (first, second) = if temperature_first { (j, i) } else { (i, j) };
+    if first > second {
+        scored[second..=first].rotate_right(1);
+    }
 }
 
 /// [`spectrum_of`] with every spectral term's amplitude at its upper bound,

@@ -3,13 +3,14 @@
 //!
 //! ```text
 //! cargo run --release --no-default-features --example diagnosis_power -- null RECORDINGS [SEED]
-//! cargo run --release --no-default-features --example diagnosis_power -- power PER_POINT [SEED] [PNG]
+//! cargo run --release --no-default-features --example diagnosis_power -- power PER_POINT [SEED] [PNG|-] [FAMILY,…]
 //! ```
 //! `null` simulates clean six-axis recordings over 100–400 Hz, 20 min–2 h and the N/B/K mixes of
 //! `tests/power_common` and prints every candidate the diagnosis weighed (CSV on stdout; the clean
 //! axes that got a suggestion on stderr). `power` hides each effect at a ladder of strengths in
 //! PER_POINT recordings per point (100/200/400 Hz, 20 and 60 min, every mix) and prints a markdown
-//! table; with PNG it also draws the curves. Runs on two threads.
+//! table; with PNG it also draws the curves; with a list of families (effect ids), only those.
+//! Runs on two threads.
 
 #[path = "../tests/power_common/mod.rs"]
 mod power_common;
@@ -92,12 +93,12 @@ fn null(recordings: usize, seed: u64) {
 /// One family's detection-rate curve: its name, strength scale and (strength, rate) points.
 type Curve<'a> = (&'a str, Scale, Vec<(f64, f64)>);
 
-fn power(per_point: usize, seed: u64, png: Option<&str>) {
+fn power(per_point: usize, seed: u64, png: Option<&str>, only: Option<&str>) {
     let set = settings(per_point, POWER_GRID, seed);
     let mut curves: Vec<Curve> = Vec::new();
     println!("| effect | strength | detected | parameters within tolerance (of detected) | named instead |");
     println!("|---|---|---|---|---|");
-    for family in families() {
+    for family in families().into_iter().filter(|f| only.is_none_or(|o| o.split(',').any(|n| n == f.name))) {
         let ladder = LADDER[usize::from(family.scale == Scale::TestSigma)];
         let mut curve = Vec::new();
         for &strength in ladder {
@@ -180,7 +181,12 @@ fn main() {
     let seed = args.get(3).and_then(|a| a.parse().ok()).unwrap_or(1000);
     match args.get(1).map(String::as_str) {
         Some("null") => null(count, seed),
-        Some("power") => power(count, seed, args.get(4).map(String::as_str)),
-        _ => eprintln!("usage: diagnosis_power null|power COUNT [SEED] [PNG]"),
+        Some("power") => power(
+            count,
+            seed,
+            args.get(4).map(String::as_str).filter(|p| *p != "-"),
+            args.get(5).map(String::as_str),
+        ),
+        _ => eprintln!("usage: diagnosis_power null|power COUNT [SEED] [PNG|-] [FAMILY,…]"),
     }
 }

@@ -33,11 +33,12 @@ fn clean_axes_rarely_get_a_suggestion() {
 
 /// Each family at its stated visibility (tests/power_common `Family::visible`, read off the measured
 /// curves in docs/model.md): named first in at least 90 % of 20 recordings, parameters within
-/// tolerance in at least 90 % of those. Returns the families that fall short.
-fn check_visibility(families: impl Iterator<Item = power_common::Family>) -> Vec<String> {
+/// tolerance in at least 90 % of those.
+#[test]
+fn hidden_effects_are_named_at_their_stated_visibility() {
     let set = settings(20, GRID, 40_000);
     let mut failures = Vec::new();
-    for family in families {
+    for family in families() {
         let out = power_point(&family, family.visible, &set, 2);
         let detected = out.iter().filter(|o| o.detected).count();
         let ok = out.iter().filter(|o| o.params_ok).count();
@@ -47,21 +48,5 @@ fn check_visibility(families: impl Iterator<Item = power_common::Family>) -> Vec
             failures.push(format!("{}: {detected}/{} named, {ok} within tolerance", family.name, out.len()));
         }
     }
-    failures
-}
-
-#[test]
-fn hidden_effects_are_named_at_their_stated_visibility() {
-    let failures = check_visibility(families().into_iter().filter(|f| f.short.is_none()));
-    assert!(failures.is_empty(), "{failures:#?}");
-}
-
-/// The families that do not meet the contract at any measured strength (issue 10 stays open for
-/// them; `Family::short` says why). Run with `cargo test --release --test diagnosis_power --
-/// --ignored`; it fails until they are fixed.
-#[test]
-#[ignore = "issue 10: ramp (absorbed by K) and g_sensitivity (biased coefficient) fall short; see Family::short"]
-fn the_families_known_to_fall_short_meet_the_contract() {
-    let failures = check_visibility(families().into_iter().filter(|f| f.short.is_some()));
     assert!(failures.is_empty(), "{failures:#?}");
 }

@@ -184,7 +184,6 @@ fn spectral_case(kind: &dyn EffectKind, seed: u64) -> Case {
         // Flicker departs from its continuous floor below m ≈ 8 (see BiasInstability).
         "bias_instability" => (&[1e-4], 1e-4, 1 << 17, 8),
         "random_walk" => (&[1e-3], 1e-3, 1 << 16, 1),
-        "ramp" => (&[1e-4], 1e-3, 1 << 16, 1),
         "sinusoid" => (&[1e-2, 0.5], 1e-3, 1 << 16, 1),
         "gauss_markov" => (&[1e-2, 5.0], 1e-3, 1 << 16, 1),
         // T = 8 ms against τ0 = 10 ms: σ²(τ0) is 45 % below N²/τ0, the deficit visible to m ≈ 4.
@@ -396,6 +395,17 @@ fn check_time_domain(kind: &dyn EffectKind, seed: u64) {
                 beta_x.abs() < z999() * se_x,
                 "not on another axis: {beta_x} ± {se_x}"
             );
+        }
+        "ramp" => {
+            let effect = build("ramp", &[2e-4]);
+            // Exact form on zeros: r·n·τ0.
+            let y = simulate(&[effect.as_ref()], &context(dt), len, seed);
+            assert!(y.iter().enumerate().all(|(n, v)| (v - 2e-4 * n as f64 * dt).abs() < 1e-15));
+            // In noise: the slope on time is r within its standard error.
+            let y = simulate(&[white.as_ref(), effect.as_ref()], &context(dt), len, seed);
+            let t: Vec<f64> = (0..len).map(|n| n as f64 * dt).collect();
+            let (beta, se) = regression(&t, &y);
+            assert!((beta - 2e-4).abs() < z999() * se, "{beta} ± {se}");
         }
         other => panic!("no time-domain conformance case for '{other}': add one"),
     }

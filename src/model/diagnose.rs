@@ -39,8 +39,8 @@ use crate::model::fit::{
 use crate::model::measure::NoiseClass;
 use crate::model::spec::ModelSpec;
 use crate::model::timedomain::{self, NoiseSpectrum, Plans, Signature, Whitened};
-use std::borrow::Cow;
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 
 /// Least gain in generalised χ² for a spectral effect with one free amplitude.
 ///
@@ -155,6 +155,7 @@ pub fn diagnose_planned(
     let spectral_spec = ModelSpec::from_ids(base.spectral_kinds.iter().map(|k| k.id()));
     let mut scored: Vec<(Suggestion, f64, FittedModel)> = Vec::new();
     let mut weighed = Vec::new();
+    let mut regressed = Vec::new();
     for &kind in registry.iter().filter(|k| !spec.contains(k.id())) {
         let with = spec.with(kind.id());
         let (test, after) = match kind.domain() {
@@ -170,33 +171,49 @@ pub fn diagnose_planned(
                 if !timedomain::has_evidence(kind, input) {
                     continue;
                 }
-                let Ok(est) = timedomain::estimate(kind, input, &series) else {
+                let Ok(est) = timedomain::estimate(kind, input, &series, None) else {
                     continue;
                 };
                 let Some(screen) = base_noise.as_ref().and_then(|w| time_test(kind, &est, input, &series, w)) else {
                     continue;
                 };
+                if screen.driver.is_some() {
+                    regressed.push(kind.id());
+                }
+                let retest = screen.absorbed || screen.test.p_value.is_some_and(|p| p < SCREEN_ALPHA);
                 let test = match screen.driver {
                     // A driven effect is retested against the noise refitted without its GLS
                     // estimate: the base terms absorb a drift (K inflated), which would hide it.
+                    // A trend always is: K takes it wholly (its screen t² is then about 2).
                     // Not against the noise of the refit with the effect: that removes the
                     // ordinary least-squares coefficient, which on a wandering record takes away
                     // part of the wander with it (a spurious regression), and the retest would
                     // then overstate every clean axis's t² (measured: mean 1.8 for 1).
-                    Some((c, x)) if screen.test.p_value.is_some_and(|p| p < SCREEN_ALPHA) => {
+                    Some((c, x)) if retest => {
                         let mean = x.iter().filter(|v| v.is_finite()).sum::<f64>()
                             / x.iter().filter(|v| v.is_finite()).count().max(1) as f64;
                         let rest: Vec<f64> = series
                             .iter()
-                            .zip(x)
+                            .zip(x.iter())
                             .map(|(y, v)| if v.is_finite() { y - c * (v - mean) } else { *y })
                             .collect();
                         let rest_input = AxisInput { rate: &rest, ..*input };
                         // `screen` exists only when `base_noise` does: the transform of
                         // `series` is reused, weighted by the refitted noise.
+                        // A trend is told from a random walk only as far as the record bounds
+                        // the walk: it is weighed against the largest noise the detrended record
+                        // admits, or an unresolved K (zero on a 10 min record) would let any
+                        // drift pass (measured: t² up to 42 on clean axes against the fit).
+                        let noise = |f: &FittedModel| {
+                            if screen.absorbed {
+                                spectrum_at_bound(f, registry, input.tau0)
+                            } else {
+                                spectrum_of(f, registry, input.tau0)
+                            }
+                        };
                         fit(&rest_input, &spectral_spec, registry, opts)
                             .ok()
-                            .and_then(|f| base_noise.as_ref()?.with_noise(&spectrum_of(&f, registry, input.tau0)))
+                            .and_then(|f| base_noise.as_ref()?.with_noise(&noise(&f)))
                             .and_then(|w| time_test(kind, &est, input, &series, &w))
                             .map_or(screen.test, |t| t.test)
                     }
@@ -228,7 +245,10 @@ pub fn diagnose_planned(
             }
         }
     }
-    best_first(&mut scored, registry);
+    best_first(&mut scored, registry, &regressed);
+    if let Some(w) = &base_noise {
+        one_drift_one_driver(&mut scored, registry, &regressed, input, &series, w.noise());
+    }
     let (suggestions, after) = scored.into_iter().map(|(s, _, after)| (s, after)).unzip();
     Ok(Diagnosis {
         fit: before,
@@ -283,11 +303,12 @@ pub fn diagnose_curve(
             }
         }
     }
-    best_first(&mut scored, registry);
+    best_first(&mut scored, registry, &[]);
     Ok(scored.into_iter().map(|(s, _, ())| s).collect())
 }
 
-/// Sorts suggestions best first: a driven effect whose fit_error after is below
+/// Sorts suggestions best first: a driven effect (a measured driver, or any effect in
+/// `regressed`: found by a regression, as a trend is on time) whose fit_error after is below
 /// [`DRIVER_PREFERENCE`] times the best shape-only one's, then the rest; within each, the
 /// largest gain net of its penalty.
 ///
@@ -300,11 +321,15 @@ pub fn diagnose_curve(
 /// equally well the one with fewer searched shapes comes first. Why not the lowest fit_error
 /// after: a sinusoid whose period is about the record's follows a rate ramp to within 1 % of
 /// fit_error (measured: 1.080 vs 1.090 on a 20 min ramp), so the two-parameter mimic came first
-/// about half of the time.
-fn best_first<T>(scored: &mut [(Suggestion, f64, T)], registry: &[&'static dyn EffectKind]) {
+/// about half of the time; with the ramp found by its trend test, a sinusoid of period longer
+/// than the record (a curve through the Allan variance of a random walk and a ramp) still came
+/// first on a strong random walk (euroc accel: 1 of 12 at 12, 16 and 24 σ), so a regressed
+/// effect is ranked as a driven one.
+fn best_first<T>(scored: &mut [(Suggestion, f64, T)], registry: &[&'static dyn EffectKind], regressed: &[&str]) {
     let kind = |s: &Suggestion| registry.iter().find(|k| k.id() == s.effect);
     let driven = |s: &Suggestion| {
-        kind(s).is_some_and(|k| matches!(k.evidence(), Evidence::Temperature | Evidence::Accel))
+        regressed.contains(&s.effect.as_str())
+            || kind(s).is_some_and(|k| matches!(k.evidence(), Evidence::Temperature | Evidence::Accel))
     };
     let best_shape_only = scored
         .iter()
@@ -420,6 +445,63 @@ fn spectrum_of(fit: &FittedModel, registry: &[&'static dyn EffectKind], tau0: f6
     NoiseSpectrum::from_curves(tau0, &taus, curves.iter().map(|(c, v)| (*c, v.as_slice())))
 }
 
+/// A drift suggested both as a line in time (a regression on time: the rate ramp) and as a
+/// temperature coefficient is one drift: the regressor that explains it better comes first.
+///
+/// Both are fitted the same way — the block-mean GLS of [`timedomain::block_regression`], one
+/// regressor and an intercept each, against the same base noise — and compared by t². Why not
+/// their own tests: the temperature test works on tapered first differences, which cancel the
+/// linear part of a warm-up by design, while the trend test sees all of it, so a warm-up scored
+/// higher as a ramp (measured: 4 of 20 temperature recordings at 16σ named `ramp` first).
+fn one_drift_one_driver<T>(
+    scored: &mut [(Suggestion, f64, T)],
+    registry: &[&'static dyn EffectKind],
+    regressed: &[&str],
+    input: &AxisInput<'_>,
+    series: &[f64],
+    noise: &NoiseSpectrum,
+) {
+    let evidence = |s: &Suggestion| registry.iter().find(|k| k.id() == s.effect).map(|k| k.evidence());
+    let on_time = scored
+        .iter()
+        .position(|(s, ..)| regressed.contains(&s.effect.as_str()) && evidence(s) == Some(Evidence::None));
+    let on_temperature = scored.iter().position(|(s, ..)| evidence(s) == Some(Evidence::Temperature));
+    let (Some(i), Some(j), Some(temperature)) = (on_time, on_temperature, input.temperature_c) else {
+        return;
+    };
+    let t2 = |x| timedomain::block_regression(series, x, noise).map_or(0.0, |r| r.t2);
+    let temperature_first = t2(Some(temperature)) >= t2(None);
+    let (first, second) = if temperature_first { (j, i) } else { (i, j) };
+    if first > second {
+        scored[second..=first].rotate_right(1);
+    }
+}
+
+/// [`spectrum_of`] with every spectral term's amplitude at its upper bound,
+/// value + [`ParamValue::BOUND_SIGMAS`]·σ (the noise a trend is weighed against).
+fn spectrum_at_bound(fit: &FittedModel, registry: &[&'static dyn EffectKind], tau0: f64) -> NoiseSpectrum {
+    let taus: Vec<f64> = fit.points.iter().map(|p| p.tau).collect();
+    let curves: Vec<(NoiseClass, Vec<f64>)> = fit
+        .terms
+        .iter()
+        .filter(|t| t.domain == Domain::Spectral && t.curve.len() == taus.len())
+        .map(|t| {
+            let mut values: Vec<f64> = t.params.iter().map(|p| p.value).collect();
+            if let (Some(v), Some(s)) = (values.first_mut(), t.params.first().and_then(|p| p.sigma)) {
+                *v = v.abs() + ParamValue::BOUND_SIGMAS * s;
+            }
+            let curve = registry
+                .iter()
+                .find(|k| k.id() == t.effect)
+                .and_then(|k| k.build(&values).ok())
+                .and_then(|e| taus.iter().map(|&tau| e.avar(tau)).collect::<Option<Vec<f64>>>())
+                .unwrap_or_else(|| t.curve.clone());
+            (class_of(t, registry), curve)
+        })
+        .collect();
+    NoiseSpectrum::from_curves(tau0, &taus, curves.iter().map(|(c, v)| (*c, v.as_slice())))
+}
+
 /// The rate with the model's own time-domain terms removed (what its spectral terms describe).
 fn cleaned<'a>(
     input: &AxisInput<'a>,
@@ -511,10 +593,13 @@ fn chi2_gain<F: Scored>(before: &F, after: &F, registry: &[&'static dyn EffectKi
     Some((chi2(pb)? - chi2(pa)?) * k_eff / k)
 }
 
-/// A time-domain test, and for a driven effect its GLS coefficient with the driver it is on.
+/// A time-domain test, and for a driven effect or a trend its GLS coefficient with the driver it
+/// is on (time for a trend).
 struct TimeTest<'a> {
     test: Test,
-    driver: Option<(f64, &'a [f64])>,
+    driver: Option<(f64, Cow<'a, [f64]>)>,
+    /// The base terms take the effect wholly (a trend: K), so it is always retested.
+    absorbed: bool,
 }
 
 /// A time-domain test against the base noise `w` of the cleaned `series`.
@@ -525,7 +610,7 @@ fn time_test<'a>(
     series: &[f64],
     w: &Whitened,
 ) -> Option<TimeTest<'a>> {
-    let plain = |test| Some(TimeTest { test, driver: None });
+    let plain = |test| Some(TimeTest { test, driver: None, absorbed: false });
     match est.signature {
         Signature::Driven => {
             let drivers: Vec<&[f64]> = match kind.evidence() {
@@ -541,7 +626,18 @@ fn time_test<'a>(
             let p = timedomain::p_of_t2(best.t2, tests);
             Some(TimeTest {
                 test: Test::by_p(best.t2, p, |t2| timedomain::p_of_t2(t2, tests)),
-                driver: Some((best.coefficient, x)),
+                driver: Some((best.coefficient, Cow::Borrowed(x))),
+                absorbed: false,
+            })
+        }
+        Signature::Trend => {
+            let g = timedomain::trend(series, w.noise())?;
+            let p = timedomain::p_of_t2(g.t2, 1);
+            let time: Vec<f64> = (0..series.len()).map(|i| i as f64 * input.tau0).collect();
+            Some(TimeTest {
+                test: Test::by_p(g.t2, p, |t2| timedomain::p_of_t2(t2, 1)),
+                driver: Some((g.coefficient, Cow::Owned(time))),
+                absorbed: true,
             })
         }
         Signature::MeanStep => {

@@ -33,7 +33,7 @@ use crate::allan::oavar_rate;
 use crate::model::measure::{chi2_interval, edf_for_mix, NoiseClass};
 use crate::model::nnls::{nnls, NnlsError};
 use crate::model::spec::{ModelSpec, SpecError};
-use crate::model::timedomain;
+use crate::model::timedomain::{self, NoiseSpectrum, Signature};
 use crate::signal::Axis;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
@@ -479,6 +479,29 @@ pub fn fit(
     prepared.fit_spectral(spec, &prepared.spectral_kinds, opts)
 }
 
+/// The base noise of `series` as the spectral `kinds` fitted to its Allan variance describe it
+/// (what the time-domain regressions are weighed against); `None` without spectral kinds or when
+/// the fit fails.
+fn noise_of(
+    series: &[f64],
+    tau0: f64,
+    kinds: &[&'static dyn EffectKind],
+    opts: &FitOptions,
+) -> Option<NoiseSpectrum> {
+    if kinds.is_empty() {
+        return None;
+    }
+    let max_m = ((series.len() as f64) * opts.max_m_fraction).floor() as usize;
+    let points = oavar_rate(series, tau0, &opts.grid.factors(max_m.max(1)));
+    let fit = fit_curve(&points, kinds, opts.weight_iterations).ok()?;
+    let taus: Vec<f64> = fit.points.iter().map(|p| p.tau).collect();
+    Some(NoiseSpectrum::from_curves(
+        tau0,
+        &taus,
+        fit.terms.iter().zip(&fit.classes).map(|(t, &c)| (c, t.curve.as_slice())),
+    ))
+}
+
 /// A record with its time-domain effects estimated and removed, and its Allan variance measured.
 ///
 /// Kept so that the diagnosis can try several spectral additions without measuring again.
@@ -531,10 +554,32 @@ pub fn prepare(
             params: vec![("start_s".into(), s.start_s), ("end_s".into(), s.end_s)],
         })
         .collect();
-    for kind in timedomain::in_estimation_order(&time_kinds) {
-        let est = timedomain::estimate(kind, input, &series)?;
-        let effect = kind.build(&est.values)?;
+    let order = timedomain::in_estimation_order(&time_kinds);
+    let mut estimates = Vec::with_capacity(order.len());
+    for &kind in &order {
+        let est = timedomain::estimate(kind, input, &series, None)?;
         timedomain::remove(kind, &est, input, series.to_mut());
+        estimates.push(est);
+    }
+    // A regression (on a driver or on time) is estimated again by GLS against the noise of the
+    // rest: the first, ordinary least-squares guess weighs a wandering record's random walk as
+    // heavily as the signal (see `timedomain::trend`, `Whitened`).
+    let regression = |e: &timedomain::Estimate| matches!(e.signature, Signature::Driven | Signature::Trend);
+    if estimates.iter().any(regression) {
+        if let Some(noise) = noise_of(&series, input.tau0, &spectral_kinds, opts) {
+            series = std::borrow::Cow::Borrowed(input.rate);
+            for (&kind, est) in order.iter().zip(estimates.iter_mut()) {
+                if regression(est) {
+                    if let Ok(gls) = timedomain::estimate(kind, input, &series, Some(&noise)) {
+                        *est = gls;
+                    }
+                }
+                timedomain::remove(kind, est, input, series.to_mut());
+            }
+        }
+    }
+    for (&kind, est) in order.iter().zip(&estimates) {
+        let effect = kind.build(&est.values)?;
         if est.is_event {
             events.push(Event {
                 effect: kind.id().into(),

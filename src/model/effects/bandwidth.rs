@@ -2,7 +2,7 @@
 
 use super::{
     check_params, params_of, std_normal, Domain, Effect, EffectKind, Evidence, Explanation,
-    KindInfo, Param, ParamError, ParamSpec, SimContext, SimStage,
+    Extended, Extra, KindInfo, Param, ParamError, ParamSpec, SimContext, SimStage,
 };
 use rand::RngCore;
 use std::f64::consts::PI;
@@ -32,31 +32,13 @@ static INFO: KindInfo = KindInfo {
     construct: |v| Ok(Box::new(Bandwidth::new(v[0], v[1])?)),
 };
 
-/// The registry entry of [`Bandwidth`]: [`KindInfo`] plus the cut-off's search range.
-pub(super) struct BandwidthKind;
+/// What the registry entry of [`Bandwidth`] adds to its [`KindInfo`]: the cut-off's search range.
+pub(super) struct BandwidthExtra;
 
 /// The registry entry of [`Bandwidth`].
-pub(super) static KIND: BandwidthKind = BandwidthKind;
+pub(super) static KIND: Extended<BandwidthExtra> = Extended { info: &INFO, extra: BandwidthExtra };
 
-impl EffectKind for BandwidthKind {
-    fn id(&self) -> &'static str {
-        INFO.id
-    }
-    fn alias(&self) -> Option<&'static str> {
-        INFO.alias
-    }
-    fn schema(&self) -> &'static [ParamSpec] {
-        INFO.schema
-    }
-    fn domain(&self) -> Domain {
-        INFO.domain
-    }
-    fn evidence(&self) -> Evidence {
-        INFO.evidence
-    }
-    fn build(&self, values: &[f64]) -> Result<Box<dyn Effect>, ParamError> {
-        INFO.build(values)
-    }
+impl Extra for BandwidthExtra {
     /// A low-pass shows in the Allan variance of samples at τ0 well above the Nyquist frequency:
     /// its deficit at τ0 is about 3/(4π·f_c·τ0) of N²/τ0 (7 % for f_c = 2/τ0), so the cut-off is
     /// searched up to 2/τmin, not capped at Nyquist like a sinusoid's frequency. Down to

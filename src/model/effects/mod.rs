@@ -5,6 +5,8 @@
 //! [`REGISTRY`], so adding a physical effect is one new file and one line in that slice. Nothing
 //! outside this folder matches on a concrete effect type.
 
+use crate::model::fit::{AxisInput, FitError};
+use crate::model::timedomain::{Estimate, NoiseSpectrum};
 use rand::RngCore;
 use serde::{Deserialize, Serialize};
 use std::fmt::Debug;
@@ -297,6 +299,30 @@ pub trait EffectKind: Sync {
         let _ = (index, tau_min, tau_max);
         None
     }
+    /// The kind's own time-domain estimator, when its file has one ([`TimeEstimator`]); `None`
+    /// (the default): spectral, or estimated by `model::timedomain`.
+    fn time_estimator(&self) -> Option<&'static dyn TimeEstimator> {
+        None
+    }
+}
+
+/// A time-domain estimator that lives in its effect's file: how the fitter estimates the effect
+/// on the rate samples and removes it before the Allan fit of the rest.
+pub trait TimeEstimator: Sync {
+    /// Estimates the effect on `series` (the axis's rate, earlier effects removed): by generalised
+    /// least squares against `noise` when the base noise is known, else by a first guess that
+    /// needs none.
+    ///
+    /// # Errors
+    /// [`FitError`] when the series cannot carry an estimate.
+    fn estimate(
+        &self,
+        input: &AxisInput<'_>,
+        series: &[f64],
+        noise: Option<&NoiseSpectrum>,
+    ) -> Result<Estimate, FitError>;
+    /// Removes the effect given by its values in schema order from `series`.
+    fn remove(&self, values: &[f64], input: &AxisInput<'_>, series: &mut [f64]);
 }
 
 /// The registry entry of one effect file: plain data describing the kind, plus its constructor.
@@ -318,6 +344,58 @@ pub struct KindInfo {
     pub stage: SimStage,
     /// Builds the effect from values already checked against `schema`.
     pub construct: Constructor,
+}
+
+/// What a registry entry adds to its [`KindInfo`]: the [`EffectKind`] methods whose defaults it
+/// overrides (a search range, a time-domain estimator), each in its effect's file.
+pub(super) trait Extra: Sync {
+    /// As [`EffectKind::search_range`].
+    fn search_range(&self, index: usize, tau_min: f64, tau_max: f64) -> Option<(f64, f64)> {
+        let _ = (index, tau_min, tau_max);
+        None
+    }
+    /// As [`EffectKind::time_estimator`].
+    fn time_estimator(&self) -> Option<&'static dyn TimeEstimator> {
+        None
+    }
+}
+
+/// A registry entry: a [`KindInfo`] with the [`Extra`] methods of its effect.
+pub(super) struct Extended<E: 'static> {
+    /// The kind as data.
+    pub info: &'static KindInfo,
+    /// What it overrides.
+    pub extra: E,
+}
+
+impl<E: Extra> EffectKind for Extended<E> {
+    fn id(&self) -> &'static str {
+        self.info.id()
+    }
+    fn alias(&self) -> Option<&'static str> {
+        self.info.alias()
+    }
+    fn schema(&self) -> &'static [ParamSpec] {
+        self.info.schema()
+    }
+    fn domain(&self) -> Domain {
+        self.info.domain()
+    }
+    fn evidence(&self) -> Evidence {
+        self.info.evidence()
+    }
+    fn build(&self, values: &[f64]) -> Result<Box<dyn Effect>, ParamError> {
+        self.info.build(values)
+    }
+    fn sim_stage(&self) -> SimStage {
+        self.info.sim_stage()
+    }
+    fn search_range(&self, index: usize, tau_min: f64, tau_max: f64) -> Option<(f64, f64)> {
+        self.extra.search_range(index, tau_min, tau_max)
+    }
+    fn time_estimator(&self) -> Option<&'static dyn TimeEstimator> {
+        self.extra.time_estimator()
+    }
 }
 
 /// Builds a boxed effect from parameter values in schema order.

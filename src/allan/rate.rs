@@ -135,22 +135,8 @@ struct Terms {
     skipped: usize,
 }
 
-impl Terms {
-    /// Adds the term at `i` for factor `m` (left out when `bad` counts an invalid sample in it).
-    #[inline(always)]
-    fn add(&mut self, x: &[f64], bad: &[usize], m: usize, i: usize) {
-        if bad[i + 2 * m] == bad[i] {
-            let d = x[i + 2 * m] - 2.0 * x[i + m] + x[i];
-            self.sum += d * d;
-            self.terms += 1;
-        } else {
-            self.skipped += 1;
-        }
-    }
-}
-
 /// Factors summed side by side in one pass.
-const LANES: usize = 4;
+const LANES: usize = 8;
 
 /// [`Terms`] of phase `x` at each factor of `factors` (each with x.len() > 2m), over
 /// i = 0 … x.len() − 2m − 1.
@@ -158,35 +144,95 @@ const LANES: usize = 4;
 /// Why in lanes: one factor's sum is a chain of dependent additions, so a loop per factor waits on
 /// the adder's latency at every term; [`LANES`] factors in one pass keep that many independent
 /// chains in flight. Each sum still adds its terms in index order, one at a time: every result is
-/// the same number, bit for bit, as the plain loop per factor.
+/// the same number, bit for bit, as the plain loop per factor. A record without invalid samples
+/// (`bad` all zero, the usual case) takes a loop without the validity test.
 fn second_difference_sums(x: &[f64], bad: &[usize], factors: &[usize]) -> Vec<Terms> {
+    let gap_free = bad.last().is_none_or(|&b| b == 0);
     let mut out = Vec::with_capacity(factors.len());
-    let mut groups = factors.chunks_exact(LANES);
-    for group in &mut groups {
-        let ms: [usize; LANES] = group.try_into().expect("chunks_exact gives LANES factors");
-        let mut acc = [Terms::default(); LANES];
-        // The largest factor of the group has the fewest terms: all lanes run up to there.
-        let common = x.len() - 2 * ms.iter().max().expect("LANES > 0");
-        for i in 0..common {
-            for (t, &m) in acc.iter_mut().zip(&ms) {
-                t.add(x, bad, m, i);
-            }
-        }
-        for (t, &m) in acc.iter_mut().zip(&ms) {
-            for i in common..x.len() - 2 * m {
-                t.add(x, bad, m, i);
-            }
-        }
-        out.extend(acc);
-    }
-    for &m in groups.remainder() {
-        let mut t = Terms::default();
-        for i in 0..x.len() - 2 * m {
-            t.add(x, bad, m, i);
-        }
-        out.push(t);
+    for group in factors.chunks(LANES) {
+        // A short last group repeats its last factor: the spare lanes cost no latency.
+        let ms: [usize; LANES] = std::array::from_fn(|k| group[k.min(group.len() - 1)]);
+        let acc = if gap_free {
+            lanes::<false>(x, bad, ms)
+        } else {
+            lanes::<true>(x, bad, ms)
+        };
+        out.extend_from_slice(&acc[..group.len()]);
     }
     out
+}
+
+/// [`Terms`] of [`LANES`] factors in one pass; `CHECK`: test each term's samples for validity
+/// (without it, for a record with no invalid sample, every term counts).
+///
+/// A lane's terms end at x.len() − 2m, so the pass runs in segments between those ends; in a
+/// segment, a lane that has ended repeats an active lane's factor and its sum is restored after
+/// (spare work, but no lane ever runs alone and waits on the adder's latency).
+fn lanes<const CHECK: bool>(x: &[f64], bad: &[usize], ms: [usize; LANES]) -> [Terms; LANES] {
+    let mut acc = [Terms::default(); LANES];
+    let ends = ms.map(|m| x.len() - 2 * m);
+    let mut from = 0;
+    while let Some(to) = ends.iter().copied().filter(|&e| e > from).min() {
+        let spare = ms[ends.iter().position(|&e| e > from).expect("an active lane")];
+        let run = std::array::from_fn(|k| if ends[k] > from { ms[k] } else { spare });
+        let kept = acc;
+        segment::<CHECK>(x, bad, run, from..to, &mut acc);
+        for k in (0..LANES).filter(|&k| ends[k] <= from) {
+            acc[k] = kept[k];
+        }
+        from = to;
+    }
+    acc
+}
+
+/// Indices per block of [`segment`].
+const BLOCK: usize = 256;
+
+/// Adds the terms i ∈ `range` of each lane's factor to `acc`, in index order.
+///
+/// In blocks of [`BLOCK`] indices cut as fixed-size arrays: inside a block no index needs a bounds
+/// check, and the lanes' sums stay in registers.
+fn segment<const CHECK: bool>(
+    x: &[f64],
+    bad: &[usize],
+    ms: [usize; LANES],
+    range: std::ops::Range<usize>,
+    acc: &mut [Terms; LANES],
+) {
+    fn block<T>(v: &[T], from: usize) -> &[T; BLOCK] {
+        v[from..from + BLOCK].try_into().expect("BLOCK values")
+    }
+    let mut i = range.start;
+    while i + BLOCK <= range.end {
+        let x0 = block(x, i);
+        let x1 = ms.map(|m| block(x, i + m));
+        let x2 = ms.map(|m| block(x, i + 2 * m));
+        let b0 = block(bad, i);
+        let b2 = ms.map(|m| block(bad, i + 2 * m));
+        for j in 0..BLOCK {
+            for (k, t) in acc.iter_mut().enumerate() {
+                if !CHECK || b2[k][j] == b0[j] {
+                    let d = x2[k][j] - 2.0 * x1[k][j] + x0[j];
+                    t.sum += d * d;
+                    t.terms += 1;
+                } else {
+                    t.skipped += 1;
+                }
+            }
+        }
+        i += BLOCK;
+    }
+    for i in i..range.end {
+        for (t, &m) in acc.iter_mut().zip(&ms) {
+            if bad[i + 2 * m] == bad[i] {
+                let d = x[i + 2 * m] - 2.0 * x[i + m] + x[i];
+                t.sum += d * d;
+                t.terms += 1;
+            } else {
+                t.skipped += 1;
+            }
+        }
+    }
 }
 
 #[cfg(test)]

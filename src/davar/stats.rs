@@ -11,6 +11,7 @@
 use crate::allan::AllanPoint;
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 use std::collections::HashMap;
+use std::sync::{Arc, Mutex, PoisonError};
 
 /// Lower tail probability of the 68.3 % (one-sigma) two-sided interval.
 pub const ONE_SIGMA_LOW: f64 = 0.158_655_253_931_457;
@@ -133,6 +134,29 @@ impl IntervalCache {
             ci_low: avar * lo,
             ci_high: avar * hi,
         }
+    }
+}
+
+/// One [`IntervalCache`] of the one-sigma interval ([`ONE_SIGMA_LOW`], [`edf_overlapping`]) that
+/// several engines use, e.g. the axes of one pipeline.
+///
+/// Why: the factors depend on (m, terms) only, and the axes of a record meet the same pairs; each
+/// pair's χ² inversions are then made once, not once per axis (the same numbers either way).
+/// Engines look the cache up only for a pair they have not met themselves, so the lock is rare.
+#[derive(Debug, Clone)]
+pub struct SharedIntervals(Arc<Mutex<IntervalCache>>);
+
+impl Default for SharedIntervals {
+    fn default() -> Self {
+        SharedIntervals(Arc::new(Mutex::new(IntervalCache::new(ONE_SIGMA_LOW))))
+    }
+}
+
+impl SharedIntervals {
+    /// [`IntervalCache::factors`] of the shared cache.
+    pub fn factors(&self, m: usize, terms: usize) -> IntervalFactors {
+        // A panic while holding the lock leaves the map whole (an entry is inserted complete).
+        self.0.lock().unwrap_or_else(PoisonError::into_inner).factors(m, terms)
     }
 }
 

@@ -22,7 +22,7 @@
 //! from a truncated window.
 
 use super::reference::{FTarget, FTargetTracker, SigmaRef, SigmaRefTracker};
-use super::stats::{IntervalFactors, SharedIntervals};
+use super::stats::{IntervalFactors, IntervalMemo, SharedIntervals};
 use super::{DavarError, DavarRow, WindowPolicy};
 use crate::allan::AllanPoint;
 
@@ -76,10 +76,8 @@ pub struct DavarEngine {
     sigma_ref: SigmaRefTracker,
     f_target: FTargetTracker,
     intervals: SharedIntervals,
-    /// Per factor, indexed by the number of terms: (edf, lo, hi) once looked up (edf NaN until
-    /// then). A row needs one per factor; a window is at most λ2 long, so these tables are small
-    /// and spare the cache's hashing on every row.
-    interval_of: Vec<Vec<IntervalFactors>>,
+    /// Per factor, the intervals it met lately (a row needs one per factor).
+    interval_of: Vec<IntervalMemo>,
     /// Point vectors of rows handed back by [`DavarEngine::recycle`], reused by the next rows.
     spare: Vec<Vec<AllanPoint>>,
     /// Ring length L.
@@ -186,7 +184,7 @@ impl DavarEngine {
             sigma_ref: SigmaRefTracker::new(config.sigma_ref),
             f_target: FTargetTracker::new(config.f_target),
             intervals,
-            interval_of: vec![Vec::new(); factors.len()],
+            interval_of: vec![IntervalMemo::default(); factors.len()],
             spare: Vec::new(),
             len,
             n: 0,
@@ -391,14 +389,8 @@ impl DavarEngine {
 
     /// (edf, lo, hi) of factor number `i` for `terms` terms, from the table or else the cache.
     fn interval(&mut self, i: usize, terms: usize) -> IntervalFactors {
-        let known = &mut self.interval_of[i];
-        if known.len() <= terms {
-            known.resize(terms + 1, (f64::NAN, 0.0, 0.0));
-        }
-        if known[terms].0.is_nan() {
-            known[terms] = self.intervals.factors(self.factors[i], terms);
-        }
-        known[terms]
+        let (m, shared) = (self.factors[i], &self.intervals);
+        self.interval_of[i].get(terms, || shared.factors(m, terms))
     }
 
     /// Emits every pending row whose window is complete, advancing the window policy.

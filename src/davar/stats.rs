@@ -137,6 +137,38 @@ impl IntervalCache {
     }
 }
 
+/// A small direct-mapped memo of [`IntervalFactors`] by number of terms, for one averaging factor.
+///
+/// Why: a DAVAR row needs one interval per τ, and from row to row the number of terms moves by a
+/// few (the window's step), so the last [`MEMO_SLOTS`] values of `terms` almost always hold it;
+/// a hash lookup per row and τ cost more than the row's arithmetic. Bounded memory, whatever λ2.
+#[derive(Debug, Clone)]
+pub struct IntervalMemo(Vec<Option<(usize, IntervalFactors)>>);
+
+/// Entries of an [`IntervalMemo`] (entry `terms mod MEMO_SLOTS`).
+pub const MEMO_SLOTS: usize = 256;
+
+impl Default for IntervalMemo {
+    fn default() -> Self {
+        IntervalMemo(vec![None; MEMO_SLOTS])
+    }
+}
+
+impl IntervalMemo {
+    /// The factors for `terms`, from the memo or else from `fetch` (then remembered).
+    pub fn get(&mut self, terms: usize, fetch: impl FnOnce() -> IntervalFactors) -> IntervalFactors {
+        let entry = &mut self.0[terms % MEMO_SLOTS];
+        match *entry {
+            Some((t, f)) if t == terms => f,
+            _ => {
+                let f = fetch();
+                *entry = Some((terms, f));
+                f
+            }
+        }
+    }
+}
+
 /// One [`IntervalCache`] of the one-sigma interval ([`ONE_SIGMA_LOW`], [`edf_overlapping`]) that
 /// several engines use, e.g. the axes of one pipeline.
 ///

@@ -18,8 +18,8 @@
 use crate::allan::TauGrid;
 use crate::davar::{
     ChangeDetector, ChangeEvent, DavarEngine, DavarError, DavarRow,
-    DetectorConfig, EngineConfig, FTarget, FixedWindow, ProportionalPolicy, SigmaRef, SignPolicy,
-    WindowPolicy,
+    DetectorConfig, EngineConfig, FTarget, FixedWindow, ProportionalPolicy, SharedIntervals, SigmaRef,
+    SignPolicy, WindowPolicy,
 };
 use crate::signal::{Axis, ImuSample, Intake, Irregularities, Placed};
 use serde::{Deserialize, Serialize};
@@ -360,6 +360,8 @@ pub struct Pipeline {
     /// Scratch: the samples one push placed.
     placed: Vec<Placed>,
     running: Option<Running>,
+    /// The χ² intervals the axes' engines share.
+    intervals: SharedIntervals,
 }
 
 impl std::fmt::Debug for Pipeline {
@@ -399,6 +401,7 @@ impl Pipeline {
             record,
             placed: Vec::new(),
             running: None,
+            intervals: SharedIntervals::default(),
         };
         // Validate the engine configuration now, with a placeholder period when none is given.
         pipeline.engine_for(Axis::GyroX, pipeline.config.tau0.unwrap_or(1.0))?;
@@ -425,7 +428,7 @@ impl Pipeline {
             sigma_ref,
             f_target: self.config.f_target,
         };
-        Ok(DavarEngine::new(engine, self.config.policy.build())?)
+        Ok(DavarEngine::with_intervals(engine, self.config.policy.build(), self.intervals.clone())?)
     }
 
     /// The nominal period in use, once known.
@@ -457,6 +460,14 @@ impl Pipeline {
         self.intake.push(sample, &mut |p| placed.push(p));
         self.place(&mut placed, out);
         self.placed = placed;
+    }
+
+    /// Hands back a row this pipeline made once its points are no longer needed: the next rows
+    /// of that axis reuse their memory ([`DavarEngine::recycle`]).
+    pub fn recycle(&mut self, row: AxisRow) {
+        if let Some(state) = self.running.as_mut().and_then(|r| r.axes.iter_mut().find(|a| a.axis == row.axis)) {
+            state.engine.recycle(row.row.points);
+        }
     }
 
     /// Ends the input: flushes held samples (estimating τ0 from them if needed) and closes open

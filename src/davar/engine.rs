@@ -22,12 +22,23 @@
 //! from a truncated window.
 
 use super::reference::{FTarget, FTargetTracker, SigmaRef, SigmaRefTracker};
-use super::stats::{IntervalCache, IntervalFactors, ONE_SIGMA_LOW};
+use super::stats::{IntervalFactors, IntervalMemo, SharedIntervals};
 use super::{DavarError, DavarRow, WindowPolicy};
 use crate::allan::AllanPoint;
 
+/// Most point vectors kept for reuse (a push emits one row, rarely several).
+const SPARE_ROWS: usize = 4;
+
 /// Extra ring slots beyond λ2 (the proof in [`DavarEngine::new`] needs 2).
 const RING_MARGIN: usize = 8;
+
+/// One factor's prefix at one slot: the sum of the valid squared second differences so far and
+/// their count (side by side: a push and a row read both).
+#[derive(Debug, Clone, Copy, Default)]
+struct Prefix {
+    sum: f64,
+    count: u64,
+}
 
 /// What one engine computes besides its window policy.
 #[derive(Debug, Clone, PartialEq)]
@@ -64,9 +75,11 @@ pub struct DavarEngine {
     tau0: f64,
     sigma_ref: SigmaRefTracker,
     f_target: FTargetTracker,
-    intervals: IntervalCache,
-    /// Per factor: the last (terms, (edf, lo, hi)) looked up; a fixed window hits it every row.
-    last_interval: Vec<Option<(usize, IntervalFactors)>>,
+    intervals: SharedIntervals,
+    /// Per factor, the intervals it met lately (a row needs one per factor).
+    interval_of: Vec<IntervalMemo>,
+    /// Point vectors of rows handed back by [`DavarEngine::recycle`], reused by the next rows.
+    spare: Vec<Vec<AllanPoint>>,
     /// Ring length L.
     len: usize,
     /// Samples pushed so far (the index of the next sample).
@@ -83,9 +96,10 @@ pub struct DavarEngine {
     sum1: Vec<f64>,
     sum2: Vec<f64>,
     valid: Vec<u64>,
-    /// Per factor: prefix sums of valid squared second differences and their count, at slot j mod L.
-    term_sum: Vec<Vec<f64>>,
-    term_count: Vec<Vec<u64>>,
+    /// At `(j mod L)·K + i` for factor number i: prefix of the valid squared second differences
+    /// (slot-major: a row reads every factor's prefix at its window's first slot, a rebase reads
+    /// and writes every factor's at one slot after the other).
+    terms: Vec<Prefix>,
     /// The pending analysis index and its window.
     t: u64,
     w: usize,
@@ -114,6 +128,19 @@ impl DavarEngine {
     /// [`DavarError::Config`] when τ0 is not positive, the grid is empty or unsorted, a factor is 0,
     /// the bounds are inverted or below 3, or a given σ²_ref / F̃ is not positive.
     pub fn new(config: EngineConfig, policy: Box<dyn WindowPolicy>) -> Result<Self, DavarError> {
+        Self::with_intervals(config, policy, SharedIntervals::default())
+    }
+
+    /// [`DavarEngine::new`] taking its χ² intervals from `intervals`, which other engines may
+    /// share (the same rows).
+    ///
+    /// # Errors
+    /// As [`DavarEngine::new`].
+    pub fn with_intervals(
+        config: EngineConfig,
+        policy: Box<dyn WindowPolicy>,
+        intervals: SharedIntervals,
+    ) -> Result<Self, DavarError> {
         let bad = |reason: String| Err(DavarError::Config { reason });
         let bounds = policy.bounds();
         if !(config.tau0 > 0.0 && config.tau0.is_finite()) {
@@ -156,8 +183,9 @@ impl DavarEngine {
             tau0: config.tau0,
             sigma_ref: SigmaRefTracker::new(config.sigma_ref),
             f_target: FTargetTracker::new(config.f_target),
-            intervals: IntervalCache::new(ONE_SIGMA_LOW),
-            last_interval: vec![None; factors.len()],
+            intervals,
+            interval_of: vec![IntervalMemo::default(); factors.len()],
+            spare: Vec::new(),
             len,
             n: 0,
             base: 0,
@@ -167,8 +195,7 @@ impl DavarEngine {
             sum1: vec![0.0; len],
             sum2: vec![0.0; len],
             valid: vec![0; len],
-            term_sum: vec![vec![0.0; len]; factors.len()],
-            term_count: vec![vec![0; len]; factors.len()],
+            terms: vec![Prefix::default(); len * factors.len()],
             t: (w / 2) as u64,
             w,
             excluded_total: 0,
@@ -196,17 +223,27 @@ impl DavarEngine {
         self.valid[next] = self.valid[slot] + ok;
         self.n = k + 1;
         for i in 0..self.factors.len() {
-            let m = self.factors[i] as u64;
-            if self.n >= self.base + 2 * m {
-                // Slots counted back from that of n (2m < L): no division per factor.
-                let (a, b) = (self.back(next, 2 * m as usize), self.back(next, m as usize));
-                self.append_term_at(i, a, b, next);
+            let m = self.factors[i];
+            if self.n < self.base + 2 * m as u64 {
+                break; // ascending factors: the larger ones have no complete term either
             }
+            // Slots counted back from that of n (2m < L): no division per factor.
+            let (a, b) = (self.back(next, 2 * m), self.back(next, m));
+            self.append_term_at(i, a, b, next);
         }
         if self.n - self.rebased_at >= self.len as u64 {
             self.rebase();
         }
         self.emit_ready(out);
+    }
+
+    /// Hands back the points of a row this engine made, so that a later row reuses their memory
+    /// instead of allocating (a row is made per sample and axis).
+    pub fn recycle(&mut self, mut points: Vec<AllanPoint>) {
+        if self.spare.len() < SPARE_ROWS {
+            points.clear();
+            self.spare.push(points);
+        }
     }
 
     /// Pushes `count` missing samples (a gap of `count` sample periods).
@@ -277,15 +314,25 @@ impl DavarEngine {
         }
     }
 
+    /// Where the prefix of factor number `i` at `slot` is.
+    fn at(&self, i: usize, slot: usize) -> usize {
+        slot * self.factors.len() + i
+    }
+
     /// Records the second difference that starts at index j for factor number `i`, from the
     /// slots a, b, c of indices j, j + m, j + 2m.
+    #[inline(always)]
     fn append_term_at(&mut self, i: usize, a: usize, b: usize, c: usize) {
         let m = self.factors[i] as u64;
         let d = self.sum1[c] - 2.0 * self.sum1[b] + self.sum1[a];
         let ok = self.valid[c] - self.valid[a] == 2 * m;
         let next = self.wrap(a + 1);
-        self.term_sum[i][next] = self.term_sum[i][a] + if ok { d * d } else { 0.0 };
-        self.term_count[i][next] = self.term_count[i][a] + u64::from(ok);
+        let from = self.terms[self.at(i, a)];
+        let to = self.at(i, next);
+        self.terms[to] = Prefix {
+            sum: from.sum + if ok { d * d } else { 0.0 },
+            count: from.count + u64::from(ok),
+        };
     }
 
     /// Recomputes every prefix from the raw samples in the ring, from zero (see the module doc).
@@ -319,17 +366,31 @@ impl DavarEngine {
             slot = next;
         }
         for i in 0..self.factors.len() {
-            self.term_sum[i][first] = 0.0;
-            self.term_count[i][first] = 0;
-            let m = self.factors[i];
-            let (mut j, mut a) = (self.base, first);
-            while j + 2 * m as u64 <= self.n {
+            let at = self.at(i, first);
+            self.terms[at] = Prefix::default();
+        }
+        // Index by index, every factor at each: the factors' sums are independent chains, so
+        // this keeps K additions in flight instead of waiting on one chain (each chain's
+        // additions are the same, in the same order, as factor by factor).
+        let (mut j, mut a) = (self.base, first);
+        while j + 2 * self.factors[0] as u64 <= self.n {
+            for i in 0..self.factors.len() {
+                let m = self.factors[i];
+                if j + 2 * m as u64 > self.n {
+                    break;
+                }
                 let (b, c) = (self.wrap(a + m), self.wrap(a + 2 * m));
                 self.append_term_at(i, a, b, c);
-                j += 1;
-                a = self.wrap(a + 1);
             }
+            j += 1;
+            a = self.wrap(a + 1);
         }
+    }
+
+    /// (edf, lo, hi) of factor number `i` for `terms` terms, from the table or else the cache.
+    fn interval(&mut self, i: usize, terms: usize) -> IntervalFactors {
+        let (m, shared) = (self.factors[i], &self.intervals);
+        self.interval_of[i].get(terms, || shared.factors(m, terms))
     }
 
     /// Emits every pending row whose window is complete, advancing the window policy.
@@ -375,30 +436,28 @@ impl DavarEngine {
         let sigma2_ref = self.sigma_ref.current();
         let f = sigma2_ref.map(|r| variance / r);
         let f_target = self.f_target.target(valid);
-        let mut points = Vec::with_capacity(self.factors.len());
+        let mut points = self
+            .spare
+            .pop()
+            .unwrap_or_else(|| Vec::with_capacity(self.factors.len()));
         let mut excluded = 0usize;
-        for (i, &m) in self.factors.iter().enumerate() {
+        for i in 0..self.factors.len() {
+            let m = self.factors[i];
             if 3 * m > self.w {
                 break;
             }
             let total = self.w - 2 * m + 1;
             let end = self.wrap(a + total);
-            let terms = (self.term_count[i][end] - self.term_count[i][a]) as usize;
+            let (first, last) = (self.terms[self.at(i, a)], self.terms[self.at(i, end)]);
+            let terms = (last.count - first.count) as usize;
             excluded += total - terms;
             if terms == 0 {
                 continue;
             }
-            let sum = (self.term_sum[i][end] - self.term_sum[i][a]).max(0.0);
+            let sum = (last.sum - first.sum).max(0.0);
             let mf = m as f64;
             let avar = sum / (2.0 * mf * mf * terms as f64);
-            let (edf, lo, hi) = match self.last_interval[i] {
-                Some((t, f)) if t == terms => f,
-                _ => {
-                    let f = self.intervals.factors(m, terms);
-                    self.last_interval[i] = Some((terms, f));
-                    f
-                }
-            };
+            let (edf, lo, hi) = self.interval(i, terms);
             points.push(AllanPoint {
                 m,
                 tau: mf * self.tau0,

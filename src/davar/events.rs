@@ -32,7 +32,7 @@
 //! uncertain a short window is).
 
 use super::reference::RobustLevel;
-use super::stats::{edf_closed_form, IntervalCache};
+use super::stats::{edf_closed_form, IntervalCache, IntervalMemo};
 use super::DavarRow;
 use serde::{Deserialize, Serialize};
 use statrs::distribution::{ContinuousCDF, Normal};
@@ -96,6 +96,8 @@ pub struct ChangeDetector {
     config: DetectorConfig,
     level: RobustLevel,
     band: IntervalCache,
+    /// The band's factors met lately at the first row's m (the shortest τ; one lookup per row).
+    memo: Option<(usize, IntervalMemo)>,
     run: Option<Run>,
 }
 
@@ -107,6 +109,7 @@ impl ChangeDetector {
             config,
             level: RobustLevel::new(),
             band: IntervalCache::with_edf(p_low, edf_closed_form),
+            memo: None,
             run: None,
         }
     }
@@ -124,7 +127,13 @@ impl ChangeDetector {
             return None;
         }
         let level = self.level.median()?;
-        let (_, lo, hi) = self.band.factors(p.m, p.terms);
+        let band = &mut self.band;
+        let (m, memo) = self.memo.get_or_insert_with(|| (p.m, IntervalMemo::default()));
+        let (_, lo, hi) = if *m == p.m {
+            memo.get(p.terms, || band.factors(p.m, p.terms))
+        } else {
+            band.factors(p.m, p.terms)
+        };
         Some(level < p.avar * lo || level > p.avar * hi)
     }
 

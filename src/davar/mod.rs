@@ -39,7 +39,7 @@ pub use engine::{DavarEngine, EngineConfig};
 pub use events::{ChangeDetector, ChangeEvent, DetectorConfig};
 pub use fixed::FixedWindow;
 pub use reference::{record_variance, FTarget, RobustLevel, SigmaRef};
-pub use stats::{edf_overlapping, IntervalCache};
+pub use stats::{edf_overlapping, IntervalCache, SharedIntervals};
 
 use crate::allan::AllanPoint;
 use serde::{Deserialize, Serialize};

@@ -206,6 +206,9 @@ pub struct RobustLevel {
     /// Bin holding the lower median, and the number of values in bins below it.
     at: usize,
     below: u64,
+    /// [`RobustLevel::median`], recomputed only when `at` moves: every row asks for it, and the
+    /// median bin rarely changes.
+    median: Option<f64>,
 }
 
 const LEVEL_BIN: f64 = 0.01;
@@ -226,6 +229,7 @@ impl RobustLevel {
             total: 0,
             at: LEVEL_HALF_BINS,
             below: 0,
+            median: None,
         }
     }
 
@@ -234,8 +238,9 @@ impl RobustLevel {
         if !(value > 0.0 && value.is_finite()) {
             return;
         }
-        let anchor = *self.anchor.get_or_insert(value.ln());
-        let offset = ((value.ln() - anchor) / LEVEL_BIN).round();
+        let ln = value.ln();
+        let anchor = *self.anchor.get_or_insert(ln);
+        let offset = ((ln - anchor) / LEVEL_BIN).round();
         let bin =
             (offset + LEVEL_HALF_BINS as f64).clamp(0.0, (2 * LEVEL_HALF_BINS) as f64) as usize;
         self.counts[bin] += 1;
@@ -244,6 +249,7 @@ impl RobustLevel {
             self.below += 1;
         }
         let rank = (self.total - 1) / 2;
+        let was = self.at;
         while self.below > rank {
             self.at -= 1;
             self.below -= self.counts[self.at];
@@ -251,6 +257,10 @@ impl RobustLevel {
         while self.below + self.counts[self.at] <= rank {
             self.below += self.counts[self.at];
             self.at += 1;
+        }
+        if self.at != was || self.median.is_none() {
+            let offset = self.at as f64 - LEVEL_HALF_BINS as f64;
+            self.median = Some((anchor + offset * LEVEL_BIN).exp());
         }
     }
 
@@ -267,9 +277,7 @@ impl RobustLevel {
     /// assert!((l.median().unwrap() / 2.0 - 1.0).abs() < 0.01);
     /// ```
     pub fn median(&self) -> Option<f64> {
-        let anchor = self.anchor?;
-        let offset = self.at as f64 - LEVEL_HALF_BINS as f64;
-        Some((anchor + offset * LEVEL_BIN).exp())
+        self.median
     }
 }
 

@@ -11,6 +11,7 @@
 use crate::allan::AllanPoint;
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 use std::collections::HashMap;
+use std::sync::{Arc, Mutex, PoisonError};
 
 /// Lower tail probability of the 68.3 % (one-sigma) two-sided interval.
 pub const ONE_SIGMA_LOW: f64 = 0.158_655_253_931_457;
@@ -133,6 +134,61 @@ impl IntervalCache {
             ci_low: avar * lo,
             ci_high: avar * hi,
         }
+    }
+}
+
+/// A small direct-mapped memo of [`IntervalFactors`] by number of terms, for one averaging factor.
+///
+/// Why: a DAVAR row needs one interval per τ, and from row to row the number of terms moves by a
+/// few (the window's step), so the last [`MEMO_SLOTS`] values of `terms` almost always hold it;
+/// a hash lookup per row and τ cost more than the row's arithmetic. Bounded memory, whatever λ2.
+#[derive(Debug, Clone)]
+pub struct IntervalMemo(Vec<Option<(usize, IntervalFactors)>>);
+
+/// Entries of an [`IntervalMemo`] (entry `terms mod MEMO_SLOTS`).
+pub const MEMO_SLOTS: usize = 256;
+
+impl Default for IntervalMemo {
+    fn default() -> Self {
+        IntervalMemo(vec![None; MEMO_SLOTS])
+    }
+}
+
+impl IntervalMemo {
+    /// The factors for `terms`, from the memo or else from `fetch` (then remembered).
+    pub fn get(&mut self, terms: usize, fetch: impl FnOnce() -> IntervalFactors) -> IntervalFactors {
+        let entry = &mut self.0[terms % MEMO_SLOTS];
+        match *entry {
+            Some((t, f)) if t == terms => f,
+            _ => {
+                let f = fetch();
+                *entry = Some((terms, f));
+                f
+            }
+        }
+    }
+}
+
+/// One [`IntervalCache`] of the one-sigma interval ([`ONE_SIGMA_LOW`], [`edf_overlapping`]) that
+/// several engines use, e.g. the axes of one pipeline.
+///
+/// Why: the factors depend on (m, terms) only, and the axes of a record meet the same pairs; each
+/// pair's χ² inversions are then made once, not once per axis (the same numbers either way).
+/// Engines look the cache up only for a pair they have not met themselves, so the lock is rare.
+#[derive(Debug, Clone)]
+pub struct SharedIntervals(Arc<Mutex<IntervalCache>>);
+
+impl Default for SharedIntervals {
+    fn default() -> Self {
+        SharedIntervals(Arc::new(Mutex::new(IntervalCache::new(ONE_SIGMA_LOW))))
+    }
+}
+
+impl SharedIntervals {
+    /// [`IntervalCache::factors`] of the shared cache.
+    pub fn factors(&self, m: usize, terms: usize) -> IntervalFactors {
+        // A panic while holding the lock leaves the map whole (an entry is inserted complete).
+        self.0.lock().unwrap_or_else(PoisonError::into_inner).factors(m, terms)
     }
 }
 

@@ -91,23 +91,24 @@ fn run_rows(mut pipeline: Pipeline, rx: Receiver<Arc<[ImuSample]>>) -> Rows {
     let mut out = Output::default();
     let mut summaries: Vec<RowSummary> = Vec::new();
     let mut events = Vec::new();
-    let mut take = |out: &mut Output| {
+    let mut take = |pipeline: &mut Pipeline, out: &mut Output| {
         for r in out.rows.drain(..) {
             match summaries.iter_mut().find(|s| s.axis == r.axis) {
                 Some(s) => s.add(&r),
                 None => summaries.push(RowSummary::of(&r)),
             }
+            pipeline.recycle(r);
         }
         events.append(&mut out.events);
     };
     for chunk in rx {
         for s in chunk.iter() {
             pipeline.push(s, &mut out);
-            take(&mut out);
+            take(&mut pipeline, &mut out);
         }
     }
     pipeline.finish(&mut out);
-    take(&mut out);
+    take(&mut pipeline, &mut out);
     Rows { pipeline, summaries, events }
 }
 

@@ -630,34 +630,34 @@ impl Whitened {
         }
         let den = g.den - correction;
         let coefficient = g.num / den;
-        let extra = coefficient.powi(2) * a_u * (1..bins).map(|k| g.a[k].norm_sqr() * u_kk(k)).sum::<f64>();
+        let extra = coefficient.powi(2) * a_u * (1..bins).map(|k| self.weight(&g.xs, k).norm_sqr() * u_kk(k)).sum::<f64>();
         let sigma = (g.var_num + 0.5 * extra).sqrt() / den;
         Some(Regression { coefficient, sigma, t2: (coefficient / sigma).powi(2) })
     }
 
     /// The sums of the GLS regression on `x`: numerator, denominator and the numerator's variance
-    /// (see the formula of [`Whitened`]), with the driver's transform and its weights.
+    /// (see the formula of [`Whitened`]), with the driver's transform.
     fn gls(&self, x: &[f64]) -> Option<Gls> {
         if x.len() != self.skip + self.len + 1 {
             return None;
         }
         let xs = tapered_diff_dft(&x[self.skip..], self.fft.as_ref());
         let bins = xs.len();
-        let a: Vec<Complex<f64>> = (0..bins)
-            .map(|k| if k == 0 { Complex::new(0.0, 0.0) } else { xs[k] / self.cov(k, 0) })
-            .collect();
-        let num: f64 = (1..bins).map(|k| (a[k].conj() * self.spectrum[k]).re).sum();
-        let den: f64 = (1..bins).map(|k| (a[k].conj() * xs[k]).re).sum();
+        // The weights a_k are computed where used, not stored: a whole-run record's driver
+        // transform is millions of bins.
+        let a = |k: usize| self.weight(&xs, k);
+        let num: f64 = (1..bins).map(|k| (a(k).conj() * self.spectrum[k]).re).sum();
+        let den: f64 = (1..bins).map(|k| (a(k).conj() * xs[k]).re).sum();
         if den.is_nan() || den <= 0.0 {
             return None;
         }
         let var_num = 0.5
             * (1..bins)
                 .map(|k| {
-                    let mut v = a[k].norm_sqr() * self.cov(k, 0);
+                    let mut v = a(k).norm_sqr() * self.cov(k, 0);
                     for d in 1..=2 {
                         if k + d < bins {
-                            v += 2.0 * (a[k].conj() * a[k + d]).re * self.cov(k, d);
+                            v += 2.0 * (a(k).conj() * a(k + d)).re * self.cov(k, d);
                         }
                     }
                     v
@@ -666,7 +666,16 @@ impl Whitened {
         if var_num.is_nan() || var_num <= 0.0 {
             return None;
         }
-        Some(Gls { num, den, var_num, xs, a })
+        Some(Gls { num, den, var_num, xs })
+    }
+
+    /// The GLS weight of bin `k` of a driver's transform `xs`: a_k = X_k / C_kk (0 for the mean).
+    fn weight(&self, xs: &[Complex<f64>], k: usize) -> Complex<f64> {
+        if k == 0 {
+            Complex::new(0.0, 0.0)
+        } else {
+            xs[k] / self.cov(k, 0)
+        }
     }
 }
 
@@ -676,7 +685,6 @@ struct Gls {
     den: f64,
     var_num: f64,
     xs: Vec<Complex<f64>>,
-    a: Vec<Complex<f64>>,
 }
 
 /// Blocks of [`trend`]: a line through M block means keeps all but 1/M² of the record's trend

@@ -629,9 +629,9 @@ fn take_ready<M>(
 /// Why the subscriptions' async streams, polled by hand on this thread, rather than a mio `Poll`
 /// (as before): a stream leaves a waker that DDS calls once per message (one thread unpark),
 /// where the mio source is a socket pair that cost an `epoll_wait` and two or three `recv` calls
-/// per message (each `Subscription::take` drains it), about a fifth of the node's CPU at 2 kHz
-/// (README, node rows). Nobody reads the socket pair now: once full, DDS's writes to it fail at
-/// once.
+/// per message (each `Subscription::take` drains it): up to a fifth of the node's samples in a
+/// `perf record` at 2 kHz (README, node rows, has the measured gain). Nobody reads the socket
+/// pair now: once full, DDS's writes to it fail at once.
 #[allow(clippy::too_many_arguments)]
 fn receive_loop(
     imu: &Subscription<Imu>,

@@ -163,13 +163,7 @@ fn sci(v: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use clap::Parser;
-
-    #[derive(Debug, Parser, PartialEq)]
-    struct Cli {
-        #[command(flatten)]
-        args: Args,
-    }
+    use crate::parse_args;
 
     #[test]
     fn numbers_print_like_stable32() {
@@ -181,14 +175,12 @@ mod tests {
 
     #[test]
     fn defaults_and_flags_parse() {
-        let a = Cli::try_parse_from(["x", "f.txt", "--rate", "100"])
-            .unwrap()
-            .args;
+        let a = parse_args::<Args>(&["x", "f.txt", "--rate", "100"]).unwrap();
         assert_eq!(
             (a.estimator, a.taus, a.phase, a.json),
             (Estimator::Oadev, TauGrid::PerDecade(10), false, false)
         );
-        let a = Cli::try_parse_from([
+        let a = parse_args::<Args>(&[
             "x",
             "f",
             "--rate",
@@ -200,9 +192,7 @@ mod tests {
             "hdev",
             "--column",
             "gyro_x",
-        ])
-        .unwrap()
-        .args;
+        ]).unwrap();
         assert_eq!(
             (a.estimator, a.taus, a.column),
             (
@@ -211,7 +201,7 @@ mod tests {
                 Some(ColumnSelector::Name("gyro_x".into()))
             )
         );
-        assert!(Cli::try_parse_from(["x", "f", "--rate", "1", "--phase", "--frequency"]).is_err());
-        assert!(Cli::try_parse_from(["x", "f", "--rate", "1", "--estimator", "tdev"]).is_err());
+        assert!(parse_args::<Args>(&["x", "f", "--rate", "1", "--phase", "--frequency"]).is_err());
+        assert!(parse_args::<Args>(&["x", "f", "--rate", "1", "--estimator", "tdev"]).is_err());
     }
 }

@@ -188,20 +188,14 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use clap::Parser;
-
-    #[derive(Debug, Parser, PartialEq)]
-    struct Cli {
-        #[command(flatten)]
-        args: Args,
-    }
+    use crate::parse_args;
 
     #[test]
     fn flags_parse() {
-        let cli = Cli::try_parse_from(["x", "b.mcap", "--jobs", "2", "--axis", "gyro_x", "--json"]).unwrap();
-        assert_eq!(cli.args.jobs, Some(2));
-        assert_eq!(cli.args.selection.axis, vec![Axis::GyroX]);
-        assert!(Cli::try_parse_from(["x", "b.mcap", "--jobs", "0"]).is_err());
-        assert!(Cli::try_parse_from(["x", "b.mcap", "--model", "N,nope"]).is_err());
+        let args = parse_args::<Args>(&["x", "b.mcap", "--jobs", "2", "--axis", "gyro_x", "--json"]).unwrap();
+        assert_eq!(args.jobs, Some(2));
+        assert_eq!(args.selection.axis, vec![Axis::GyroX]);
+        assert!(parse_args::<Args>(&["x", "b.mcap", "--jobs", "0"]).is_err());
+        assert!(parse_args::<Args>(&["x", "b.mcap", "--model", "N,nope"]).is_err());
     }
 }

@@ -504,25 +504,19 @@ fn write_csv_row(w: &mut impl Write, r: &AxisRow) -> std::io::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use clap::Parser;
-
-    #[derive(Debug, Parser, PartialEq)]
-    struct Cli {
-        #[command(flatten)]
-        args: Args,
-    }
+    use crate::parse_args;
 
     #[test]
     fn flags_parse() {
-        let cli = Cli::try_parse_from(["x", "f.txt", "--rate", "100", "--json", "--every", "0.5"])
+        let args = parse_args::<Args>(&["x", "f.txt", "--rate", "100", "--json", "--every", "0.5"])
             .unwrap();
-        assert_eq!(cli.args.rate, Some(100.0));
-        assert_eq!(cli.args.every, Some(0.5));
-        assert!(cli.args.json);
-        assert!(Cli::try_parse_from(["x", "f.txt", "--json", "--csv"]).is_err());
+        assert_eq!(args.rate, Some(100.0));
+        assert_eq!(args.every, Some(0.5));
+        assert!(args.json);
+        assert!(parse_args::<Args>(&["x", "f.txt", "--json", "--csv"]).is_err());
         for bad in ["0", "-1", "inf", "NaN", "1s"] {
-            assert!(Cli::try_parse_from(["x", "f.txt", "--every", bad]).is_err(), "{bad}");
+            assert!(parse_args::<Args>(&["x", "f.txt", "--every", bad]).is_err(), "{bad}");
         }
-        assert!(Cli::try_parse_from(["x", "f.txt", "--axis", "gyro_w"]).is_err());
+        assert!(parse_args::<Args>(&["x", "f.txt", "--axis", "gyro_w"]).is_err());
     }
 }

@@ -87,6 +87,14 @@ enum Command {
     Info(info::Args),
 }
 
+/// One subcommand's flags parsed alone (`argv[0]` is the program name): what each
+/// subcommand's tests check its flags with.
+#[cfg(test)]
+fn parse_args<A: clap::Args + clap::FromArgMatches>(argv: &[&str]) -> Result<A, clap::Error> {
+    let mut matches = A::augment_args(clap::Command::new("fdavar")).try_get_matches_from(argv)?;
+    A::from_arg_matches_mut(&mut matches)
+}
+
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,

@@ -96,7 +96,13 @@ pub fn estimate(
             let whittle = noise.and_then(|n| Whitened::new(series, n)?.regress(t));
             let blocks = noise.and_then(|n| block_regression(series, Some(t), n));
             let gls = [whittle, blocks].into_iter().flatten().min_by(|a, b| a.sigma.total_cmp(&b.sigma));
-            let (c, s) = gls.map_or_else(|| (regress(series, t).0, regress(series, t).1), |g| (g.coefficient, g.sigma));
+            let (c, s) = gls.map_or_else(
+                || {
+                    let (c, s, _) = regress(series, t);
+                    (c, s)
+                },
+                |g| (g.coefficient, g.sigma),
+            );
             let (_, _, strength) = regress_slow(series, t);
             Ok(Estimate {
                 values: vec![c],
@@ -745,9 +751,10 @@ pub fn block_regression(y: &[f64], x: Option<&[f64]>, noise: &NoiseSpectrum) -> 
     let skip = y.len() - m * b;
     let tau0 = noise.tau0;
     let tb = b as f64 * tau0;
-    let finite_mean = |v: &[f64]| {
-        let (sum, count) = v.iter().filter(|v| v.is_finite()).fold((0.0, 0usize), |(s, c), v| (s + v, c + 1));
-        (2 * count >= v.len()).then(|| sum / count as f64)
+    // The mean of a block at least half finite (else the block is left out).
+    let block_mean = |v: &[f64]| {
+        let finite = v.iter().filter(|v| v.is_finite()).count();
+        (2 * finite >= v.len()).then(|| finite_mean(v))
     };
     // (block index, regressor: centre time or driver mean, rate mean) of the blocks at least
     // half finite.
@@ -756,9 +763,9 @@ pub fn block_regression(y: &[f64], x: Option<&[f64]>, noise: &NoiseSpectrum) -> 
             let start = skip + j * b;
             let regressor = match x {
                 None => (start as f64 + 0.5 * (b as f64 - 1.0)) * tau0,
-                Some(x) => finite_mean(&x[start..start + b])?,
+                Some(x) => block_mean(&x[start..start + b])?,
             };
-            Some((j, regressor, finite_mean(&y[start..start + b])?))
+            Some((j, regressor, block_mean(&y[start..start + b])?))
         })
         .collect();
     let k = blocks.len();

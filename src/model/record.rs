@@ -175,6 +175,13 @@ impl RecordBuilder {
         for p in placed {
             self.place(p);
         }
+        // Nothing more comes: the room kept for the samples to come (up to half of a halved
+        // record) goes back.
+        if let Some(rec) = self.record.as_mut() {
+            for axis in rec.axes.iter_mut() {
+                axis.shrink_to_fit();
+            }
+        }
     }
 
     /// The error that stopped the record growing, if any (a gap too long to fill).

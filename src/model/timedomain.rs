@@ -518,7 +518,9 @@ pub struct Whitened {
     len: usize,
     /// The transform of `len` points, planned once: a driver's transform has the same length.
     fft: Arc<dyn RealToComplex<f64>>,
-    spectrum: Vec<Complex<f64>>,
+    /// The transform of the tapered differences: shared by the weightings of one series
+    /// ([`Whitened::with_noise`]), as long as the series itself.
+    spectrum: Arc<Vec<Complex<f64>>>,
     /// s_m of the formula, m = 0 … ⌈n/2⌉.
     untapered: Vec<f64>,
 }
@@ -544,21 +546,21 @@ impl Whitened {
         let len = fast_len(y.len() - 1);
         let skip = y.len() - 1 - len;
         let fft = plans.forward(len);
-        let spectrum = tapered_diff_dft(&y[skip..], fft.as_ref());
+        let spectrum = Arc::new(tapered_diff_dft(&y[skip..], fft.as_ref()));
         Self::weighted(skip, len, fft, spectrum, noise)
     }
 
     /// The same series weighted by another base noise: what [`Whitened::new`] gives on the same
     /// `y`, without transforming it again.
     pub fn with_noise(&self, noise: &NoiseSpectrum) -> Option<Self> {
-        Self::weighted(self.skip, self.len, Arc::clone(&self.fft), self.spectrum.clone(), noise)
+        Self::weighted(self.skip, self.len, Arc::clone(&self.fft), Arc::clone(&self.spectrum), noise)
     }
 
     fn weighted(
         skip: usize,
         len: usize,
         fft: Arc<dyn RealToComplex<f64>>,
-        spectrum: Vec<Complex<f64>>,
+        spectrum: Arc<Vec<Complex<f64>>>,
         noise: &NoiseSpectrum,
     ) -> Option<Self> {
         let untapered: Vec<f64> = (0..=spectrum.len())

@@ -62,7 +62,7 @@ pub fn identify(x: &[f64], m: usize, d_max: u32, terms: usize) -> Option<(i32, N
         return None;
     }
     let (alpha, method) = if x.len().div_ceil(m) >= ACF_MIN_POINTS {
-        (lag1_acf_alpha(decimated(), d_max)?, NoiseIdMethod::Lag1Acf)
+        (lag1_acf_alpha(decimated, d_max)?, NoiseIdMethod::Lag1Acf)
     } else {
         (
             b1_alpha(x, m, terms + d_max as usize - 1)?,
@@ -85,67 +85,96 @@ pub fn identify(x: &[f64], m: usize, d_max: u32, terms: usize) -> Option<(i32, N
 /// ```
 /// where z is the detrended frequency differenced d times, d growing from 0 until δ < 0.25 or
 /// d = d_max.
-fn lag1_acf_alpha(mut decimated: impl Iterator<Item = f64>, d_max: u32) -> Option<i32> {
-    // One buffer: the frequency averages, detrended, then differenced in place.
-    let mut prev = decimated.next()?;
-    let mut z: Vec<f64> = decimated
-        .map(|v| {
-            let d = v - prev;
-            prev = v;
+fn lag1_acf_alpha<I: Iterator<Item = f64>>(decimated: impl Fn() -> I, d_max: u32) -> Option<i32> {
+    // No buffer: every pass recomputes the values from the phase, with the same operations in
+    // the same order as differencing a copy in place would (the same bits). A whole-run record's
+    // copy would be as long as the record (16.8 MB at 2²¹ samples).
+    let frequency = || {
+        let mut phase = decimated();
+        let mut prev = phase.next();
+        phase.map(move |v| {
+            let d = v - prev.unwrap_or(v);
+            prev = Some(v);
             d
         })
-        .collect();
-    detrend_linear(&mut z)?;
+    };
+    let trend = linear_trend(frequency)?;
     let mut d = 0u32;
     loop {
-        let r1 = lag1_acf(&z)?;
+        let r1 = lag1_acf(|| differenced(trend.remove(frequency()), d))?;
         let delta = r1 / (1.0 + r1);
         if delta < 0.25 || d >= d_max {
             return Some(-(2.0 * delta).round() as i32 - 2 * d as i32);
         }
-        for i in 1..z.len() {
-            z[i - 1] = z[i] - z[i - 1];
-        }
-        z.pop();
         d += 1;
     }
 }
 
-fn lag1_acf(z: &[f64]) -> Option<f64> {
-    if z.len() < 3 {
+/// The `d`-th differences of `z`: z'[i] = z[i+1] − z[i], `d` times.
+fn differenced<'a>(z: impl Iterator<Item = f64> + 'a, d: u32) -> Box<dyn Iterator<Item = f64> + 'a> {
+    let mut z: Box<dyn Iterator<Item = f64> + 'a> = Box::new(z);
+    for _ in 0..d {
+        let mut prev = z.next();
+        z = Box::new(z.map(move |v| {
+            let d = v - prev.unwrap_or(v);
+            prev = Some(v);
+            d
+        }));
+    }
+    z
+}
+
+fn lag1_acf<I: Iterator<Item = f64>>(z: impl Fn() -> I) -> Option<f64> {
+    let (len, sum) = z().fold((0usize, -0.0), |(n, s), v| (n + 1, s + v));
+    if len < 3 {
         return None;
     }
-    let mean = z.iter().sum::<f64>() / z.len() as f64;
-    let num: f64 = z.windows(2).map(|w| (w[0] - mean) * (w[1] - mean)).sum();
-    let den: f64 = z.iter().map(|v| (v - mean).powi(2)).sum();
+    let mean = sum / len as f64;
+    let mut prev: Option<f64> = None;
+    let (num, den) = z().fold((-0.0, -0.0), |(num, den), v| {
+        let num = prev.map_or(num, |p| num + (p - mean) * (v - mean));
+        prev = Some(v);
+        (num, den + (v - mean).powi(2))
+    });
     (den > 0.0).then(|| num / den)
 }
 
-/// Removes the least-squares straight line (frequency drift) from `v`.
+/// The least-squares straight line (frequency drift) of `v`: its mean, slope and centre, so that
+/// v_i − v̄ − slope·(i − centre) are the detrended values. `None` for fewer than 3 values.
 ///
 /// # Formula
 /// ```text
 /// t_i = i − (n−1)/2,   slope = Σ t_i·v_i / Σ t_i²,   v_i ← v_i − v̄ − slope·t_i
 /// ```
-fn detrend_linear(v: &mut [f64]) -> Option<()> {
-    let n = v.len();
+fn linear_trend<I: Iterator<Item = f64>>(v: impl Fn() -> I) -> Option<Trend> {
+    let (n, sum) = v().fold((0usize, -0.0), |(n, s), y| (n + 1, s + y));
     if n < 3 {
         return None;
     }
     let centre = (n - 1) as f64 / 2.0;
-    let mean = v.iter().sum::<f64>() / n as f64;
-    let (stv, stt) = v
-        .iter()
+    let mean = sum / n as f64;
+    let (stv, stt) = v()
         .enumerate()
-        .fold((0.0, 0.0), |(stv, stt), (i, &y)| {
+        .fold((0.0, 0.0), |(stv, stt), (i, y)| {
             let t = i as f64 - centre;
             (stv + t * (y - mean), stt + t * t)
         });
-    let slope = stv / stt;
-    for (i, y) in v.iter_mut().enumerate() {
-        *y = *y - mean - slope * (i as f64 - centre);
+    Some(Trend { mean, slope: stv / stt, centre })
+}
+
+/// A straight line fitted to a series ([`linear_trend`]).
+#[derive(Debug, Clone, Copy)]
+struct Trend {
+    mean: f64,
+    slope: f64,
+    centre: f64,
+}
+
+impl Trend {
+    /// The series less the line.
+    fn remove(self, v: impl Iterator<Item = f64>) -> impl Iterator<Item = f64> {
+        v.enumerate().map(move |(i, y)| y - self.mean - self.slope * (i as f64 - self.centre))
     }
-    Some(())
 }
 
 /// B1 method: μ from the ratio of the standard variance of m-averages to their Allan variance,

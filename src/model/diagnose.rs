@@ -190,11 +190,11 @@ pub fn diagnose_planned(
                     // part of the wander with it (a spurious regression), and the retest would
                     // then overstate every clean axis's t² (measured: mean 1.8 for 1).
                     Some((c, x)) if retest => {
-                        let mean = x.iter().filter(|v| v.is_finite()).sum::<f64>()
-                            / x.iter().filter(|v| v.is_finite()).count().max(1) as f64;
+                        let mean = x.values().filter(|v| v.is_finite()).sum::<f64>()
+                            / x.values().filter(|v| v.is_finite()).count().max(1) as f64;
                         let rest: Vec<f64> = series
                             .iter()
-                            .zip(x.iter())
+                            .zip(x.values())
                             .map(|(y, v)| if v.is_finite() { y - c * (v - mean) } else { *y })
                             .collect();
                         let rest_input = AxisInput { rate: &rest, ..*input };
@@ -597,9 +597,30 @@ fn chi2_gain<F: Scored>(before: &F, after: &F, registry: &[&'static dyn EffectKi
 /// is on (time for a trend).
 struct TimeTest<'a> {
     test: Test,
-    driver: Option<(f64, Cow<'a, [f64]>)>,
+    driver: Option<(f64, Driver<'a>)>,
     /// The base terms take the effect wholly (a trend: K), so it is always retested.
     absorbed: bool,
+}
+
+/// What a driven effect or a trend is regressed on.
+#[derive(Debug, Clone, Copy)]
+enum Driver<'a> {
+    /// A measured series (temperature, an accel axis), one value per sample.
+    Measured(&'a [f64]),
+    /// Time, i·τ0 for sample i of `len`: computed where read, never stored (a whole-run
+    /// record's time axis would be as long as the record).
+    Time { tau0: f64, len: usize },
+}
+
+impl<'a> Driver<'a> {
+    /// The driver's value at each sample.
+    fn values(self) -> impl Iterator<Item = f64> + 'a {
+        let (measured, time) = match self {
+            Driver::Measured(x) => (Some(x.iter().copied()), None),
+            Driver::Time { tau0, len } => (None, Some((0..len).map(move |i| i as f64 * tau0))),
+        };
+        measured.into_iter().flatten().chain(time.into_iter().flatten())
+    }
 }
 
 /// A time-domain test against the base noise `w` of the cleaned `series`.
@@ -626,17 +647,16 @@ fn time_test<'a>(
             let p = timedomain::p_of_t2(best.t2, tests);
             Some(TimeTest {
                 test: Test::by_p(best.t2, p, |t2| timedomain::p_of_t2(t2, tests)),
-                driver: Some((best.coefficient, Cow::Borrowed(x))),
+                driver: Some((best.coefficient, Driver::Measured(x))),
                 absorbed: false,
             })
         }
         Signature::Trend => {
             let g = timedomain::trend(series, w.noise())?;
             let p = timedomain::p_of_t2(g.t2, 1);
-            let time: Vec<f64> = (0..series.len()).map(|i| i as f64 * input.tau0).collect();
             Some(TimeTest {
                 test: Test::by_p(g.t2, p, |t2| timedomain::p_of_t2(t2, 1)),
-                driver: Some((g.coefficient, Cow::Owned(time))),
+                driver: Some((g.coefficient, Driver::Time { tau0: input.tau0, len: series.len() })),
                 absorbed: true,
             })
         }

@@ -999,24 +999,37 @@ pub fn step_scan(y: &[f64], noise: &NoiseSpectrum) -> Option<StepScan> {
 /// 9.8 m/s² with 500 missing samples in a window of 3000 gave `bias_step` on clean data).
 struct FinitePrefix {
     sum: Vec<f64>,
-    count: Vec<usize>,
+    /// Finite samples before each index; `None` when every sample is finite (the count is then
+    /// the index: a whole-run record without gaps needs no second series-long array).
+    count: Option<Vec<usize>>,
 }
 
 impl FinitePrefix {
     fn new(y: &[f64]) -> FinitePrefix {
-        let (mut sum, mut count) = (Vec::with_capacity(y.len() + 1), Vec::with_capacity(y.len() + 1));
-        let (mut acc, mut finite) = (0.0, 0);
+        let mut sum = Vec::with_capacity(y.len() + 1);
+        let mut acc = 0.0;
         sum.push(0.0);
-        count.push(0);
         for &v in y {
             if v.is_finite() {
                 acc += v;
-                finite += 1;
             }
             sum.push(acc);
-            count.push(finite);
         }
+        let count = y.iter().any(|v| !v.is_finite()).then(|| {
+            let mut finite = 0;
+            std::iter::once(0)
+                .chain(y.iter().map(|v| {
+                    finite += usize::from(v.is_finite());
+                    finite
+                }))
+                .collect()
+        });
         FinitePrefix { sum, count }
+    }
+
+    /// Finite samples in y[a..b].
+    fn finite(&self, a: usize, b: usize) -> usize {
+        self.count.as_ref().map_or(b - a, |count| count[b] - count[a])
     }
 
     /// The two-window contrast at `i` with windows of `w` samples:
@@ -1025,7 +1038,7 @@ impl FinitePrefix {
     /// conservative for coloured). `None` when a window is less than half finite.
     fn contrast(&self, i: usize, w: usize) -> Option<(f64, f64)> {
         let mean = |a: usize, b: usize| {
-            let c = self.count[b] - self.count[a];
+            let c = self.finite(a, b);
             (2 * c >= w && c > 0).then(|| ((self.sum[b] - self.sum[a]) / c as f64, c))
         };
         let (after, ca) = mean(i, i + w)?;

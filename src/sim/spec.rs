@@ -60,8 +60,10 @@ pub enum ParamValue {
     Name(String),
 }
 
-/// Largest recording simulated (in memory: about 100 bytes a sample, so ≈ 2 GB), e.g. 400 Hz for
-/// 13.9 h or 1 kHz for 5.5 h.
+/// Largest recording simulated, e.g. 400 Hz for 13.9 h or 1 kHz for 5.5 h.
+///
+/// The recording is held in memory: 48 bytes a sample (≈ 1 GB here), and 176 at the peak of the
+/// flicker filter when an axis has bias instability (≈ 3.5 GB).
 pub const MAX_SAMPLES: usize = 20_000_000;
 
 fn default_start() -> i64 {

@@ -3,7 +3,7 @@
 use crate::Outcome;
 use anyhow::Context;
 use fdavar::bag::{BagWriter, WriterOptions};
-use fdavar::sim::{simulate, Recording, SimSpec};
+use fdavar::sim::{simulate_columns, Columns, SimSpec};
 use std::path::{Path, PathBuf};
 
 /// Simulate a six-axis IMU recording from a YAML spec and write it as a rosbag2 MCAP directory
@@ -27,7 +27,8 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let text = std::fs::read_to_string(&args.spec)
         .with_context(|| format!("reading spec {}", args.spec.display()))?;
     let spec = SimSpec::from_yaml(&text).with_context(|| format!("in {}", args.spec.display()))?;
-    let recording = simulate(&spec).with_context(|| format!("in {}", args.spec.display()))?;
+    let recording =
+        simulate_columns(&spec).with_context(|| format!("in {}", args.spec.display()))?;
     write_bag(&recording, &args.out, args.force)
         .with_context(|| format!("writing bag {}", args.out.display()))?;
     let truth_path = args.out.join("truth.json");
@@ -36,7 +37,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         .with_context(|| format!("writing {}", truth_path.display()))?;
     eprintln!(
         "fdavar: wrote {} IMU and {} temperature messages to {}",
-        recording.imu.len(),
+        recording.len(),
         recording.temperature.len(),
         args.out.display()
     );
@@ -44,7 +45,9 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
 }
 
 /// Writes every message at its stamp (log time = header stamp: an ideal recorder).
-fn write_bag(recording: &Recording, dir: &Path, overwrite: bool) -> anyhow::Result<()> {
+///
+/// Each IMU sample is built from the columns as it is written, so no copy of the record is held.
+fn write_bag(recording: &Columns, dir: &Path, overwrite: bool) -> anyhow::Result<()> {
     let options = WriterOptions {
         overwrite,
         ..WriterOptions::default()
@@ -52,11 +55,11 @@ fn write_bag(recording: &Recording, dir: &Path, overwrite: bool) -> anyhow::Resu
     let truth = &recording.truth;
     let mut writer = BagWriter::create_with(dir, &options)?;
     let mut temps = recording.temperature.iter().peekable();
-    for sample in &recording.imu {
+    for sample in recording.imu() {
         while let Some(t) = temps.next_if(|t| t.stamp_ns <= sample.stamp_ns) {
             writer.write_temperature(&truth.topics.temperature, t.stamp_ns, t, &truth.frame_id)?;
         }
-        writer.write_imu(&truth.topics.imu, sample.stamp_ns, sample, &truth.frame_id)?;
+        writer.write_imu(&truth.topics.imu, sample.stamp_ns, &sample, &truth.frame_id)?;
     }
     for t in temps {
         writer.write_temperature(&truth.topics.temperature, t.stamp_ns, t, &truth.frame_id)?;

@@ -74,7 +74,7 @@ fn main() -> ExitCode {
 #[cfg(feature = "ros")]
 fn keep_freed_memory() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: mallopt only sets two of glibc malloc's thresholds; it is called before the node
+    // SAFETY: mallopt only sets three of glibc malloc's thresholds; it is called before the node
     // starts any thread, and a refused value leaves the default in place (nothing to undo).
     unsafe {
         libc::mallopt(libc::M_ARENA_MAX, 1);

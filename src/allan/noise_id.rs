@@ -89,15 +89,7 @@ fn lag1_acf_alpha<I: Iterator<Item = f64>>(decimated: impl Fn() -> I, d_max: u32
     // No buffer: every pass recomputes the values from the phase, with the same operations in
     // the same order as differencing a copy in place would (the same bits). A whole-run record's
     // copy would be as long as the record (16.8 MB at 2²¹ samples).
-    let frequency = || {
-        let mut phase = decimated();
-        let mut prev = phase.next();
-        phase.map(move |v| {
-            let d = v - prev.unwrap_or(v);
-            prev = Some(v);
-            d
-        })
-    };
+    let frequency = || first_differences(decimated());
     let trend = linear_trend(frequency)?;
     let mut d = 0u32;
     loop {
@@ -110,16 +102,21 @@ fn lag1_acf_alpha<I: Iterator<Item = f64>>(decimated: impl Fn() -> I, d_max: u32
     }
 }
 
-/// The `d`-th differences of `z`: z'[i] = z[i+1] − z[i], `d` times.
+/// The first differences of `z`: z'[i] = z[i+1] − z[i].
+fn first_differences(mut z: impl Iterator<Item = f64>) -> impl Iterator<Item = f64> {
+    let mut prev = z.next();
+    z.map(move |v| {
+        let d = v - prev.unwrap_or(v);
+        prev = Some(v);
+        d
+    })
+}
+
+/// The `d`-th differences of `z`: [`first_differences`] `d` times.
 fn differenced<'a>(z: impl Iterator<Item = f64> + 'a, d: u32) -> Box<dyn Iterator<Item = f64> + 'a> {
     let mut z: Box<dyn Iterator<Item = f64> + 'a> = Box::new(z);
     for _ in 0..d {
-        let mut prev = z.next();
-        z = Box::new(z.map(move |v| {
-            let d = v - prev.unwrap_or(v);
-            prev = Some(v);
-            d
-        }));
+        z = Box::new(first_differences(z));
     }
     z
 }

@@ -160,6 +160,8 @@ fn main() {
 
 /// The node's engine and monitor in this process (see the module doc).
 fn in_process(hours: f64, period_s: f64) -> bool {
+    // The node's allocator settings, for the node's memory curve.
+    fdavar::analysis::return_large_buffers_to_kernel();
     use fdavar::model::ModelSpec;
     use fdavar::ros::engine::AnalysisEngine;
     use fdavar::ros::monitor::{Monitor, MonitorSettings};

@@ -39,7 +39,7 @@ fn main() -> ExitCode {
         );
         return ExitCode::from(1);
     }
-    keep_freed_memory();
+    fdavar::analysis::return_large_buffers_to_kernel();
     let stop = Arc::new(AtomicBool::new(false));
     if let Err(e) = stop_on_signals(&stop) {
         eprintln!("fdavar_node: error: installing the SIGINT/SIGTERM handlers: {e}");
@@ -53,33 +53,6 @@ fn main() -> ExitCode {
             eprintln!("fdavar_node: error: {e}");
             ExitCode::from(1)
         }
-    }
-}
-
-/// Makes the node's RSS flat: memory freed after a diagnosis stays in the process for the next one
-/// instead of going back to the kernel.
-///
-/// Why: a whole-run diagnosis works on series as long as the record (up to 2²¹ values per axis,
-/// `model::record`), so its buffers are tens of MB, and their size follows the record's length,
-/// which doubles and halves as the run goes on. With glibc's defaults (buffers above a dynamic
-/// threshold are `mmap`ed and unmapped on free; the heap's free top is trimmed above 128 kB) the
-/// RSS rises and falls with every round, and its level between rounds drifts with the record's
-/// phase. Kept instead, the RSS climbs to the largest round's need once the record is full and stays
-/// there: the node's footprint is its peak, known from the first hours, which is what one
-/// provisions a robot's computer for. Buffers up to 32 MB (glibc's largest `M_MMAP_THRESHOLD`) come
-/// from the heap; the record's halving keeps the largest at 2²¹ × 8 B = 16.8 MB. One arena for
-/// all threads: a thread's own arena grows in heaps of at most 64 MB, and a series-sized buffer
-/// that no longer fits a fragmented one opened another (measured: RSS +64 MB for a while at 23 h
-/// of a 24 h soak), where the one contiguous heap grows by what is missing.
-#[cfg(feature = "ros")]
-fn keep_freed_memory() {
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: mallopt only sets three of glibc malloc's thresholds; it is called before the node
-    // starts any thread, and a refused value leaves the default in place (nothing to undo).
-    unsafe {
-        libc::mallopt(libc::M_ARENA_MAX, 1);
-        libc::mallopt(libc::M_MMAP_THRESHOLD, 32 << 20);
-        libc::mallopt(libc::M_TRIM_THRESHOLD, 1 << 30);
     }
 }
 

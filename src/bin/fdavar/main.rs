@@ -96,6 +96,7 @@ fn parse_args<A: clap::Args + clap::FromArgMatches>(argv: &[&str]) -> Result<A, 
 }
 
 fn main() -> ExitCode {
+    fdavar::analysis::return_large_buffers_to_kernel();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) => {

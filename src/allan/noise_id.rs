@@ -122,11 +122,7 @@ fn differenced<'a>(z: impl Iterator<Item = f64> + 'a, d: u32) -> Box<dyn Iterato
 }
 
 fn lag1_acf<I: Iterator<Item = f64>>(z: impl Fn() -> I) -> Option<f64> {
-    let (len, sum) = z().fold((0usize, -0.0), |(n, s), v| (n + 1, s + v));
-    if len < 3 {
-        return None;
-    }
-    let mean = sum / len as f64;
+    let (_, mean) = count_and_mean(z())?;
     let mut prev: Option<f64> = None;
     let (num, den) = z().fold((-0.0, -0.0), |(num, den), v| {
         let num = prev.map_or(num, |p| num + (p - mean) * (v - mean));
@@ -134,6 +130,13 @@ fn lag1_acf<I: Iterator<Item = f64>>(z: impl Fn() -> I) -> Option<f64> {
         (num, den + (v - mean).powi(2))
     });
     (den > 0.0).then(|| num / den)
+}
+
+/// The number of values of `z` and their mean; `None` for fewer than 3 (too few for a lag-1
+/// correlation or a line).
+fn count_and_mean(z: impl Iterator<Item = f64>) -> Option<(usize, f64)> {
+    let (n, sum) = z.fold((0usize, -0.0), |(n, s), v| (n + 1, s + v));
+    (n >= 3).then(|| (n, sum / n as f64))
 }
 
 /// The least-squares straight line (frequency drift) of `v`: its mean, slope and centre, so that
@@ -144,12 +147,8 @@ fn lag1_acf<I: Iterator<Item = f64>>(z: impl Fn() -> I) -> Option<f64> {
 /// t_i = i − (n−1)/2,   slope = Σ t_i·v_i / Σ t_i²,   v_i ← v_i − v̄ − slope·t_i
 /// ```
 fn linear_trend<I: Iterator<Item = f64>>(v: impl Fn() -> I) -> Option<Trend> {
-    let (n, sum) = v().fold((0usize, -0.0), |(n, s), y| (n + 1, s + y));
-    if n < 3 {
-        return None;
-    }
+    let (n, mean) = count_and_mean(v())?;
     let centre = (n - 1) as f64 / 2.0;
-    let mean = sum / n as f64;
     let (stv, stt) = v()
         .enumerate()
         .fold((0.0, 0.0), |(stv, stt), (i, y)| {

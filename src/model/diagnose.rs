@@ -615,11 +615,14 @@ enum Driver<'a> {
 impl<'a> Driver<'a> {
     /// The driver's value at each sample.
     fn values(self) -> impl Iterator<Item = f64> + 'a {
-        let (measured, time) = match self {
-            Driver::Measured(x) => (Some(x.iter().copied()), None),
-            Driver::Time { tau0, len } => (None, Some((0..len).map(move |i| i as f64 * tau0))),
+        let len = match self {
+            Driver::Measured(x) => x.len(),
+            Driver::Time { len, .. } => len,
         };
-        measured.into_iter().flatten().chain(time.into_iter().flatten())
+        (0..len).map(move |i| match self {
+            Driver::Measured(x) => x[i],
+            Driver::Time { tau0, .. } => i as f64 * tau0,
+        })
     }
 }
 

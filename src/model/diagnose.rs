@@ -18,22 +18,18 @@
 //!
 //! The thresholds were set so that a clean axis gets any suggestion at most 2 % of the time over
 //! rates of 100–400 Hz, records of 20 min–2 h and the N/B/K mixes of common MEMS IMUs
-//! (`examples/calibrate_diagnosis.rs`; the measured rates and power curves are in docs/model.md).
+//! (`examples/diagnosis_power.rs -- null`; the measured rates and power curves are in docs/model.md).
 //! Suggestions are sorted best first (largest gain net of its penalty; a driven effect preferred by
 //! [`DRIVER_PREFERENCE`]).
-//!
-//! [`diagnose_curve`] is the same spectral criterion on Allan points alone (a live node's
-//! whole-run Allan variance): spectral effects only, since the time-domain ones need the samples.
 //!
 //! # References
 //! Guerrier S., Skaloud J., Stebler Y., Victoria-Feser M.-P., "Wavelet-variance-based estimation
 //! for composite stochastic processes", JASA 108(503), 2013 (GMWM; its WVIC model selection is in
 //! the `gmwm` R package); Whittle P., JRSS B 19(1), 1957; Rice S. O., Bell Syst. Tech. J. 24, 1945.
 
-use crate::allan::AllanPoint;
 use crate::model::effects::{Domain, EffectKind, Evidence};
 use crate::model::fit::{
-    fit, fit_curve, prepare, tau_correlation, AxisInput, CurveFit, FitError, FitOptions, FitPoint,
+    fit, prepare, tau_correlation, AxisInput, CurveFit, FitError, FitOptions, FitPoint,
     FittedModel, FittedTerm, ParamValue,
 };
 use crate::model::measure::NoiseClass;
@@ -256,55 +252,6 @@ pub fn diagnose_planned(
         after,
         weighed,
     })
-}
-
-/// Weighs every spectral effect of `registry` that `model` lacks against a curve of Allan points.
-///
-/// Why apart from [`diagnose`]: a live node keeps a streaming whole-run Allan variance, not the
-/// samples, so only the spectral refits are possible; the criterion and the order are the same
-/// code as [`diagnose`]'s. Time-domain kinds in `model` are ignored, as in [`fit_curve`]. Cost:
-/// one [`fit_curve`] per candidate.
-///
-/// # Errors
-/// The errors of [`fit_curve`] for the model itself (too few points, degenerate input); a
-/// candidate whose refit fails is skipped.
-pub fn diagnose_curve(
-    points: &[AllanPoint],
-    model: &[&'static dyn EffectKind],
-    registry: &[&'static dyn EffectKind],
-    weight_iterations: usize,
-) -> Result<Vec<Suggestion>, FitError> {
-    let before = fit_curve(points, model, weight_iterations)?;
-    let mut scored: Vec<(Suggestion, f64, ())> = Vec::new();
-    let lacking = registry
-        .iter()
-        .filter(|k| k.domain() == Domain::Spectral && !model.iter().any(|m| m.id() == k.id()));
-    for &kind in lacking {
-        let mut kinds = model.to_vec();
-        kinds.push(kind);
-        let Ok(after) = fit_curve(points, &kinds, weight_iterations) else {
-            continue;
-        };
-        let test = spectral_test(kind, &before, &after, registry);
-        if test.significant {
-            if let Some(term) = after.terms.iter().find(|t| t.effect == kind.id()) {
-                scored.push((
-                    Suggestion {
-                        effect: kind.id().to_string(),
-                        params: term.params.clone(),
-                        fit_error_after: after.fit_error,
-                        explanation: term.explanation.clone(),
-                        delta_chi2: test.statistic,
-                        threshold: test.threshold,
-                    },
-                    test.statistic,
-                    (),
-                ));
-            }
-        }
-    }
-    best_first(&mut scored, registry, &[]);
-    Ok(scored.into_iter().map(|(s, _, ())| s).collect())
 }
 
 /// Sorts suggestions best first: a driven effect (a measured driver, or any effect in

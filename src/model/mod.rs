@@ -18,6 +18,6 @@ pub mod record;
 pub mod spec;
 pub mod timedomain;
 
-pub use diagnose::{diagnose, diagnose_curve, Diagnosis, Suggestion};
+pub use diagnose::{diagnose, Diagnosis, Suggestion};
 pub use fit::{fit, fit_curve, AxisInput, FitError, FitOptions, FittedModel, Span};
 pub use spec::{ModelSpec, SpecError};

@@ -229,16 +229,18 @@ impl RecordBuilder {
             // its time is their centre. Readings after the last IMU sample are not used yet (the
             // same readings live and offline, whatever the order the two topics arrive in).
             let centre = |k: usize| (k * block) as f64 + (block - 1) as f64 / 2.0;
-            let times: Vec<i64> = (0..rec.len())
-                .map(|k| first + (centre(k) * base_tau0 * 1e9).round() as i64)
-                .collect();
             let usable: Vec<TemperatureSample> = self
                 .temps
                 .iter()
                 .filter(|t| last.is_some_and(|l| t.stamp_ns <= l))
                 .copied()
                 .collect();
-            rec.temperature_c = (!usable.is_empty()).then(|| interpolate(&usable, &times));
+            rec.temperature_c = (!usable.is_empty()).then(|| {
+                let times: Vec<i64> = (0..rec.len())
+                    .map(|k| first + (centre(k) * base_tau0 * 1e9).round() as i64)
+                    .collect();
+                interpolate(&usable, &times)
+            });
             self.temps_stale = false;
         }
         Some(rec)

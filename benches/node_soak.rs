@@ -35,8 +35,8 @@
 //! last third of the run exceeds that of the first third by less than 5 %), and no round needs
 //! more memory than the rounds of the first third did (the kernel's high-water mark VmHWM at the
 //! end exceeds its value at the end of the first third by less than 5 %) ([`Curve::verdict`]).
-//! The bench exits 1 when memory is not flat or live ≠ offline. Numbers depend on the machine; 24 h take about 15 min (`dds`: 866 s of
-//! replay measured).
+//! The bench exits 1 when memory is not flat or live ≠ offline. Numbers depend on the machine;
+//! 24 h take about 15 min (`dds`: 866 s of replay measured).
 
 use fdavar::msgs::builtin_interfaces::Time;
 use fdavar::msgs::diagnostic_msgs::DiagnosticArray;
@@ -181,14 +181,15 @@ fn main() {
 
 /// The node's engine and monitor in this process (see the module doc).
 fn in_process(hours: f64, period_s: f64) -> bool {
-    // The node's allocator settings, for the node's memory curve.
-    fdavar::analysis::return_large_buffers_to_kernel();
     use fdavar::model::ModelSpec;
     use fdavar::ros::engine::AnalysisEngine;
     use fdavar::ros::monitor::{Monitor, MonitorSettings};
     use fdavar::signal::ImuSample;
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
+
+    // The node's allocator settings, for the node's memory curve.
+    fdavar::analysis::return_large_buffers_to_kernel();
 
     let config = fdavar::params::config_from_params(&Default::default()).unwrap();
     let engine = AnalysisEngine::new(
@@ -423,7 +424,7 @@ fn dds(hours: f64, period_s: f64, rate: f64, hostile: bool) -> bool {
         l.as_ref().is_some_and(|a| (0..6).all(|i| diagnosed(a, i) == total))
     });
     curve.sample(&pid, samples(&last), start.elapsed().as_secs_f64());
-    let hwm = status_mb(&pid, "VmHWM").unwrap_or(f64::NAN);
+    let hwm = curve.points.last().map_or(f64::NAN, |p| p.2);
     let array = last.clone().expect("no /diagnostics received");
     let mut accounted = samples(&last) == sent;
     println!(

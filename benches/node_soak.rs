@@ -5,6 +5,7 @@
 //! cargo bench --bench node_soak -- dds [HOURS] [DIAGNOSIS_PERIOD_S] [RATE]
 //! cargo bench --bench node_soak -- hostile [HOURS] [DIAGNOSIS_PERIOD_S] [RATE]
 //! cargo bench --bench node_soak -- in-process [HOURS] [DIAGNOSIS_PERIOD_S]
+//! cargo bench --bench node_soak -- recording [HOURS] [DIR] [hostile]
 //! ```
 //! (defaults: 24 h, a diagnosis round every 1800 s of recording time, `--rate 100`).
 //!
@@ -24,6 +25,10 @@
 //! messages/s). Every message must be accounted for: the node's `received + drops` equals what
 //! the players sent, after the replay and after the flood; the whole-run answer equals offline
 //! on the faulty recording; and the node still publishes after the flood.
+//!
+//! `recording`: writes the recording `dds` (or with `hostile`, the faulty one) replays into DIR
+//! and stops: `fdavar diagnose DIR/faulty --first N` is then the node's round after N messages,
+//! to profile one round offline (e.g. under heaptrack).
 //!
 //! `in-process`: the node's engine and monitor (`AnalysisEngine` + `Monitor`, what the node's
 //! analysis thread runs) fed HOURS of white noise + random walk at 100 Hz from this process, a
@@ -169,8 +174,16 @@ fn main() {
             dds(hours, period_s, rate, mode == "hostile")
         }
         "in-process" => in_process(hours, period_s),
+        "recording" => {
+            let out = args.get(2).map_or("soak_recording", String::as_str);
+            let hostile = args.get(3).is_some_and(|a| a == "hostile");
+            std::fs::create_dir_all(out).expect("create the output directory");
+            let (bag, total) = soak_recording(Path::new(out), hours, hostile);
+            println!("{total} IMU messages in {}", bag.display());
+            true
+        }
         other => {
-            eprintln!("node_soak: unknown mode {other:?} (dds, hostile or in-process)");
+            eprintln!("node_soak: unknown mode {other:?} (dds, hostile, in-process or recording)");
             false
         }
     };
@@ -242,10 +255,11 @@ fn in_process(hours: f64, period_s: f64) -> bool {
     curve.verdict(total)
 }
 
-/// `fdavar play` into `fdavar_node` over DDS (see the module doc).
-fn dds(hours: f64, period_s: f64, rate: f64, hostile: bool) -> bool {
-    let dir = tempfile::tempdir().expect("temporary directory");
-    let clean = dir.path().join("soak");
+/// Writes the recording `dds` and `hostile` replay into `dir`: HOURS of bags/specs/clean.yaml
+/// at 100 Hz (`fdavar simulate`), with [`inject_faults`] when `hostile`. Returns the bag and its
+/// IMU message count (the faults add duplicated messages).
+fn soak_recording(dir: &Path, hours: f64, hostile: bool) -> (std::path::PathBuf, u64) {
+    let clean = dir.join("soak");
     let total = (hours * 3600.0) as u64 * RATE_HZ;
     let spec = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -256,7 +270,7 @@ fn dds(hours: f64, period_s: f64, rate: f64, hostile: bool) -> bool {
         "duration_s: 120",
         &format!("duration_s: {}", total / RATE_HZ),
     );
-    let spec_path = dir.path().join("soak.yaml");
+    let spec_path = dir.join("soak.yaml");
     std::fs::write(&spec_path, spec).unwrap();
     let t0 = Instant::now();
     let made = Command::new(env!("CARGO_BIN_EXE_fdavar"))
@@ -278,19 +292,25 @@ fn dds(hours: f64, period_s: f64, rate: f64, hostile: bool) -> bool {
         t0.elapsed().as_secs_f64()
     );
     let bag = if hostile {
-        let faulty = dir.path().join("faulty");
+        let faulty = dir.join("faulty");
         let injected = inject_faults(&clean, &faulty, total);
         println!("faults written: {injected}");
         faulty
     } else {
-        clean.clone()
+        clean
     };
-    // Messages in the bag played (the faults add duplicated ones).
     let total = fdavar::bag::BagReader::open(&bag)
         .expect("open the replayed bag")
         .imu_topic(None)
         .expect("its IMU topic")
         .message_count;
+    (bag, total)
+}
+
+/// `fdavar play` into `fdavar_node` over DDS (see the module doc).
+fn dds(hours: f64, period_s: f64, rate: f64, hostile: bool) -> bool {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let (bag, total) = soak_recording(dir.path(), hours, hostile);
 
     let diagnosis = format!("diagnosis_period_s:={period_s:?}");
     // The forced last round comes one period after the last /clock: not stale by then (the
@@ -437,7 +457,7 @@ fn dds(hours: f64, period_s: f64, rate: f64, hostile: bool) -> bool {
         // A second publisher floods 100 000 messages from the start of the recording (older
         // stamps: a restarted driver) at 1000× (about 10⁵ messages/s).
         let flood = dir.path().join("flood");
-        copy_first(&clean, &flood, 100_000);
+        copy_first(&dir.path().join("soak"), &flood, 100_000);
         let mut flooder = play(&flood, 1000.0, false);
         let flooded = flooder.wait().expect("wait for the flood");
         sent += imu_sent(&played_said(&mut flooder, flooded));

@@ -188,12 +188,16 @@ pub fn diagnose_planned(
                     Some((c, x)) if retest => {
                         let mean = x.values().filter(|v| v.is_finite()).sum::<f64>()
                             / x.values().filter(|v| v.is_finite()).count().max(1) as f64;
-                        let rest: Vec<f64> = series
-                            .iter()
-                            .zip(x.values())
-                            .map(|(y, v)| if v.is_finite() { y - c * (v - mean) } else { *y })
-                            .collect();
-                        let rest_input = AxisInput { rate: &rest, ..*input };
+                        // The series without the estimate lives only for the refit: the
+                        // retest's transforms are the round's largest buffers.
+                        let refit = {
+                            let rest: Vec<f64> = series
+                                .iter()
+                                .zip(x.values())
+                                .map(|(y, v)| if v.is_finite() { y - c * (v - mean) } else { *y })
+                                .collect();
+                            fit(&AxisInput { rate: &rest, ..*input }, &spectral_spec, registry, opts).ok()
+                        };
                         // `screen` exists only when `base_noise` does: the transform of
                         // `series` is reused, weighted by the refitted noise.
                         // A trend is told from a random walk only as far as the record bounds
@@ -207,8 +211,7 @@ pub fn diagnose_planned(
                                 spectrum_of(f, registry, input.tau0)
                             }
                         };
-                        fit(&rest_input, &spectral_spec, registry, opts)
-                            .ok()
+                        refit
                             .and_then(|f| base_noise.as_ref()?.with_noise(&noise(&f)))
                             .and_then(|w| time_test(kind, &est, input, &series, &w))
                             .map_or(screen.test, |t| t.test)

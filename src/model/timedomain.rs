@@ -532,7 +532,7 @@ impl std::fmt::Debug for Whitened {
 }
 
 impl Whitened {
-    /// Transforms the first differences of `y` (non-finite samples read as the mean) and weights
+    /// Transforms the first differences of `y` (a non-finite sample holds the last finite value) and weights
     /// them by `noise`. `None` for fewer than 16 samples or a spectrum without power.
     pub fn new(y: &[f64], noise: &NoiseSpectrum) -> Option<Self> {
         Self::planned(y, noise, &Plans::default())
@@ -840,8 +840,9 @@ impl Plans {
     }
 }
 
-/// The largest even n' ≤ `n` whose prime factors are at most 13: a length whose real transform
-/// (a complex one of n'/2 points) rustfft does by mixed radix with its butterflies. Such lengths
+/// The largest even n' ≤ `n` whose prime factors are at most 13 (a few excepted): a length whose
+/// real transform (a complex one of n'/2 points) rustfft does by mixed radix with its butterflies,
+/// in place, with no scratch ([`is_fast`]). Such lengths
 /// lie at most 1 % apart above 2·10⁴ (0.3 % above 2·10⁶, 2 % above 2·10³), so little of a record
 /// is left out; below 64 every length is kept.
 pub fn fast_len(n: usize) -> usize {
@@ -851,31 +852,54 @@ pub fn fast_len(n: usize) -> usize {
     (1..=n / 2).rev().find(|&m| is_fast(m)).map_or(n, |m| 2 * m)
 }
 
-/// `m`'s prime factors are all at most 13.
-fn is_fast(mut m: usize) -> bool {
-    for p in [2, 3, 5, 7, 11, 13] {
-        while m > 0 && m.is_multiple_of(p) {
-            m /= p;
+/// `m`'s prime factors are all at most 13, and it is not 13ᵏ·c with k ≥ 2 and c ≤ 4.
+///
+/// Why not those: rustfft (6.4) transforms them by Bluestein's algorithm, whose scratch is an inner
+/// transform longer than the length itself (measured with realfft 3.5 over every even 13-smooth
+/// length from 64 to 2.4·10⁶: exactly 2·13ᵏ·{1, 2, 3, 4}, k = 2 … 5, need scratch; 2·2·13⁵ needs
+/// 1.49·10⁶ values; every other length needs none). A record of such a length made its diagnosis
+/// round 24 MB larger than its neighbours' (`cargo bench --bench node_soak -- in-process 24
+/// 1800`: the round at 17 h).
+fn is_fast(m: usize) -> bool {
+    let (mut rest, mut thirteens) = (m, 0);
+    while rest > 0 && rest.is_multiple_of(13) {
+        rest /= 13;
+        thirteens += 1;
+    }
+    if thirteens >= 2 && rest <= 4 {
+        return false;
+    }
+    for p in [2, 3, 5, 7, 11] {
+        while rest > 0 && rest.is_multiple_of(p) {
+            rest /= p;
         }
     }
-    m == 1
+    rest == 1
 }
 
-/// DFT of the first differences of `y`, Hann-tapered (non-finite samples read as the mean of `y`),
+/// DFT of the first differences of `y`, Hann-tapered (a non-finite sample holds the last finite value:
+/// its differences are 0 and the increment across it goes to the next one),
 /// bins 0 … ⌈(n−1)/2⌉−1, by `fft` (planned for n − 1 points). Their mean is kept: it is the
 /// end-minus-start jump that the taper cancels (removing it would leave −¼ of the jump in bin 1).
+///
+/// Why hold, not the series' mean: on a wandering axis a sample read as the mean is a jump there
+/// and back, and samples missing on every axis at once (a lost message, a gap) put those jumps at
+/// the same places on the gyro and on the accelerometer — a driver regression then finds them
+/// (measured: g-sensitivity on all three gyro axes of the 24 h soak recording).
 ///
 /// Why a real-to-complex transform: the differences are real, so half the spectrum is the
 /// other's conjugate; computing only that half takes half the memory of a complex transform.
 fn tapered_diff_dft(y: &[f64], fft: &dyn RealToComplex<f64>) -> Vec<Complex<f64>> {
-    let mean = finite_mean(y);
-    let clean = |v: f64| if v.is_finite() { v } else { mean };
     let n = y.len().saturating_sub(1);
+    let mut held = y.iter().copied().find(|v| v.is_finite()).unwrap_or(0.0);
     let mut d: Vec<f64> = y
         .windows(2)
         .enumerate()
         .map(|(j, w)| {
-            let v = clean(w[1]) - clean(w[0]);
+            if w[0].is_finite() {
+                held = w[0];
+            }
+            let v = if w[1].is_finite() { w[1] - held } else { 0.0 };
             let h = (std::f64::consts::PI * (j as f64 + 0.5) / n as f64).sin().powi(2);
             v * h
         })
@@ -1298,6 +1322,21 @@ mod tests {
     }
 
     #[test]
+    fn a_fast_length_is_transformed_without_scratch() {
+        // The lengths rustfft leaves to Bluestein's algorithm (see is_fast) are not fast; every
+        // fast length with 13² in it up to the record's cap of 2²¹ samples transforms with no
+        // scratch buffer (the others measured so, see is_fast).
+        for m in [169, 4 * 169, 13usize.pow(4), 2 * 13usize.pow(5), 3 * 13usize.pow(5)] {
+            assert!(!is_fast(m), "{m}");
+        }
+        assert!(is_fast(5 * 169) && is_fast(13 * 13 * 13 * 6) && is_fast(26) && is_fast(52));
+        for m in (1..=(1 << 20) / 169).map(|j| j * 169).filter(|&m| is_fast(m)) {
+            let plan = RealFftPlanner::<f64>::new().plan_fft_forward(2 * m);
+            assert_eq!(plan.get_scratch_len(), 0, "length 2·{m}");
+        }
+    }
+
+    #[test]
     fn a_regression_reads_the_same_tail_as_its_series() {
         // 1001 samples: 1000 differences = 2³·5³ are kept whole; 1010 → 1009 (prime) is cut to 1008.
         let spectrum =
@@ -1338,7 +1377,12 @@ mod tests {
 
     /// White rate noise plus a random walk (K²τ/3 = N²/τ at τ = 5 s), as a fitted model would give.
     fn coloured(n: usize, seed: u64, tau0: f64) -> (Vec<f64>, NoiseSpectrum) {
-        let (nw, k) = (1e-3, 3.5e-4);
+        wandering(n, seed, tau0, 3.5e-4)
+    }
+
+    /// White rate noise (1e-3 /√Hz) and a random walk of `k` per √s.
+    fn wandering(n: usize, seed: u64, tau0: f64, k: f64) -> (Vec<f64>, NoiseSpectrum) {
+        let nw = 1e-3;
         let w = noise(n, seed);
         let e = noise(n, seed + 1000);
         let mut walk = 0.0;
@@ -1425,6 +1469,35 @@ mod tests {
 
     /// A gap (NaN run) in a series far from zero is no step: the window means leave it out. Read
     /// as zeros (before), the same series gave a step of about level × gap / W with p ≈ 0.
+    #[test]
+    fn samples_missing_on_every_axis_do_not_correlate_two_independent_axes() {
+        // Regression (the 24 h soak recording of benches/node_soak.rs, whose faults put ±1e300 on
+        // all six axes of 10 messages an hour): read as the series' mean, each missing sample of
+        // a wandering axis became a jump to the mean and back, at the same samples on the gyro and
+        // on the accelerometer, and the gyro's GLS regression on the accelerometer found a
+        // g-sensitivity (all three gyro axes at 24 h). Held at the last finite value, a missing
+        // sample adds nothing; the increment across it stays in the next difference.
+        let (tau0, n) = (0.01, 60_000);
+        let t2 = |hole: bool, seed: u64| {
+            // Random walks that wander some 25 white-noise σ from their means over the record.
+            let (mut y, spectrum) = wandering(n, seed, tau0, 1e-2);
+            let (mut x, _) = wandering(n, seed + 500, tau0, 1e-2);
+            if hole {
+                for at in (1_000..n).step_by(2_000) {
+                    for v in [&mut y, &mut x] {
+                        v[at..at + 10].iter_mut().for_each(|v| *v = f64::NAN);
+                    }
+                }
+            }
+            Whitened::new(&y, &spectrum).unwrap().regress(&x).unwrap().t2
+        };
+        for seed in [3, 4, 5] {
+            let (whole, holed) = (t2(false, seed), t2(true, seed));
+            // χ²₁ under the null: 10.8 is its 0.1 % point (TIME_ALPHA).
+            assert!(holed < 10.8, "seed {seed}: t² {holed} with holes, {whole} without");
+        }
+    }
+
     #[test]
     fn a_gap_in_a_series_far_from_zero_is_no_step() {
         let (tau0, n) = (0.01, 60_000);

@@ -1129,6 +1129,10 @@ impl Burst {
 /// perspective of ln, concave in (n, V), so LLR is convex wherever V_in, V_out > 0 (a span of
 /// exactly constant samples, V_in = 0 with n_in > 0, is the one case the hull may miss). LLR ≥ 0
 /// and is 0 for the whole record, so leaving that span out never hides a better one.
+/// Only spans louder than the rest are scored (a burst is louder: [`VariancePath::score`]), and
+/// their maximum is still at a hull vertex: on the louder side LLR grows with V_in at fixed n_in,
+/// so a louder point lies below the upper hull's segment between two vertices, and on that
+/// segment the convex LLR, zero where it crosses factor 1, peaks at a louder vertex.
 ///
 /// # References
 /// S. Boyd, L. Vandenberghe, Convex Optimization, Cambridge University Press, 2004, §3.2.6
@@ -1218,13 +1222,21 @@ impl VariancePath {
         self.pv.len() - 1
     }
 
-    /// The span of blocks [s, e) as a burst; `None` for the whole record or an empty side.
+    /// The span of blocks [s, e) as a burst; `None` for the whole record, an empty side, or a
+    /// span quieter than the rest.
+    ///
+    /// Only louder spans: a burst is louder than the record around it (`noise_burst`'s factor is
+    /// ≥ 1, and a quiet span is expressed as a burst over the rest), so a quiet span, scored, was
+    /// found and its factor clamped to 1 — an estimate of nothing. A noise level that changes
+    /// once, for good, is the louder side as a burst that runs to the record's end (issue 10:
+    /// the ADIS16405's accel_y is 15 % louder after its first half hour, and the search returned
+    /// the quiet 13–2155 s). The hull search stays exact (see [`find_burst`]).
     fn score(&self, s: usize, e: usize) -> Option<Burst> {
         let nb = self.blocks();
         let (vt, ct) = (self.pv[nb], self.pc[nb]);
         let (vi, ci) = (self.pv[e] - self.pv[s], self.pc[e] - self.pc[s]);
         let (vo, co) = (vt - vi, ct - ci);
-        if e - s == nb || ci <= 0.0 || co <= 0.0 {
+        if e - s == nb || ci <= 0.0 || co <= 0.0 || vi / ci < vo / co {
             return None;
         }
         Some(Burst {

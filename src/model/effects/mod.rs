@@ -22,6 +22,7 @@ mod ramp;
 mod random_walk;
 mod sinusoid;
 mod temperature;
+mod vibration;
 mod white;
 
 pub use bandwidth::Bandwidth;
@@ -35,6 +36,7 @@ pub use ramp::Ramp;
 pub use random_walk::RandomWalk;
 pub use sinusoid::Sinusoid;
 pub use temperature::Temperature;
+pub use vibration::Vibration;
 pub use white::White;
 
 /// The registry: every effect kind, in the order of `--help`, reports and suggestions.
@@ -47,6 +49,7 @@ pub static REGISTRY: &[&dyn EffectKind] = &[
     &random_walk::KIND,
     &ramp::KIND,
     &sinusoid::KIND,
+    &vibration::KIND,
     &bandwidth::KIND,
     &gauss_markov::KIND,
     &bias_step::KIND,
@@ -304,6 +307,12 @@ pub trait EffectKind: Sync {
     fn time_estimator(&self) -> Option<&'static dyn TimeEstimator> {
         None
     }
+    /// The kind this one is a further instance of (`vibration`: a second line beside
+    /// `sinusoid`'s): the diagnosis weighs it only for a model that holds that kind. `None` (the
+    /// default): weighed whenever the model lacks it.
+    fn follows(&self) -> Option<&'static dyn EffectKind> {
+        None
+    }
 }
 
 /// A time-domain estimator that lives in its effect's file: how the fitter estimates the effect
@@ -358,6 +367,10 @@ pub(super) trait Extra: Sync {
     fn time_estimator(&self) -> Option<&'static dyn TimeEstimator> {
         None
     }
+    /// As [`EffectKind::follows`].
+    fn follows(&self) -> Option<&'static dyn EffectKind> {
+        None
+    }
 }
 
 /// A registry entry: a [`KindInfo`] with the [`Extra`] methods of its effect.
@@ -395,6 +408,9 @@ impl<E: Extra> EffectKind for Extended<E> {
     }
     fn time_estimator(&self) -> Option<&'static dyn TimeEstimator> {
         self.extra.time_estimator()
+    }
+    fn follows(&self) -> Option<&'static dyn EffectKind> {
+        self.extra.follows()
     }
 }
 

@@ -431,13 +431,13 @@ fn registry_order_and_names_are_the_contract() {
             "random_walk",
             "ramp",
             "sinusoid",
-            "vibration",
             "bandwidth",
             "gauss_markov",
             "bias_step",
             "noise_burst",
             "temperature",
-            "g_sensitivity"
+            "g_sensitivity",
+            "vibration"
         ]
     );
     let aliases: Vec<_> = REGISTRY.iter().filter_map(|k| k.alias()).collect();

@@ -152,6 +152,8 @@ fn adis16405_accel_is_the_low_pass_and_a_0_56_hz_line() {
         let names: Vec<&str> = d.suggestions.iter().map(|s| s.effect.as_str()).collect();
         println!("{}: N,B,K fit_error {:.2}, suggestions {names:?}", axis.name(), d.fit.fit_error);
         assert!(names.contains(&"bandwidth") && names.contains(&"sinusoid"), "{}: {names:?}", axis.name());
+        // A second line is weighed only beside a first (`EffectKind::follows`): never from N,B,K.
+        assert!(d.weighed.iter().all(|w| w.effect != "vibration"), "{}: {names:?}", axis.name());
         assert!(
             matches!(names.first(), Some(&"bandwidth") | Some(&"sinusoid")),
             "{}: {names:?}",

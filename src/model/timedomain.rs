@@ -1348,6 +1348,19 @@ mod tests {
         assert!((b.factor - 3.0).abs() < 0.1, "{b:?}");
     }
 
+    /// Issue 10: a noise level that rises for good is the louder side, a burst up to the record's
+    /// end (the search returned the quiet first part, and its factor was clamped to 1).
+    #[test]
+    fn a_louder_second_half_is_a_burst_to_the_end() {
+        let mut y = noise(100 * 1200, 5);
+        let n = y.len();
+        y[n / 3..].iter_mut().for_each(|v| *v *= 1.15);
+        let b = find_burst(&y, 0.01);
+        // The end within ten 1 s blocks of the record's: the last blocks are as likely quiet as loud.
+        assert!((b.start as i64 - (n / 3) as i64).abs() <= 300 && b.end + 1000 >= n, "{b:?}");
+        assert!((b.factor - 1.15).abs() < 0.02, "{b:?}");
+    }
+
     /// White rate noise plus a random walk (K²τ/3 = N²/τ at τ = 5 s), as a fitted model would give.
     fn coloured(n: usize, seed: u64, tau0: f64) -> (Vec<f64>, NoiseSpectrum) {
         let (nw, k) = (1e-3, 3.5e-4);

@@ -41,7 +41,9 @@ pub use white::White;
 
 /// The registry: every effect kind, in the order of `--help`, reports and suggestions.
 ///
-/// Base noise terms first (IEEE 952: Q, N, B, K, R), then the effects beyond them.
+/// Base noise terms first (IEEE 952: Q, N, B, K, R), then the effects beyond them. A new kind goes
+/// at the end: the simulator draws each effect from the random stream of its index here, so an
+/// insertion would change every seeded recording (the committed bags among them).
 pub static REGISTRY: &[&dyn EffectKind] = &[
     &quantization::KIND,
     &white::KIND,
@@ -49,13 +51,13 @@ pub static REGISTRY: &[&dyn EffectKind] = &[
     &random_walk::KIND,
     &ramp::KIND,
     &sinusoid::KIND,
-    &vibration::KIND,
     &bandwidth::KIND,
     &gauss_markov::KIND,
     &bias_step::KIND,
     &noise_burst::KIND,
     &temperature::KIND,
     &g_sensitivity::KIND,
+    &vibration::KIND,
 ];
 
 /// Looks a kind up by id (`white`) or alias (`N`).

@@ -185,6 +185,7 @@ fn spectral_case(kind: &dyn EffectKind, seed: u64) -> Case {
         "bias_instability" => (&[1e-4], 1e-4, 1 << 17, 8),
         "random_walk" => (&[1e-3], 1e-3, 1 << 16, 1),
         "sinusoid" => (&[1e-2, 0.5], 1e-3, 1 << 16, 1),
+        "vibration" => (&[1e-2, 0.5], 1e-3, 1 << 16, 1),
         "gauss_markov" => (&[1e-2, 5.0], 1e-3, 1 << 16, 1),
         // T = 8 ms against τ0 = 10 ms: σ²(τ0) is 45 % below N²/τ0, the deficit visible to m ≈ 4.
         "bandwidth" => (&[1e-2, 20.0], 1e-3, 1 << 16, 1),
@@ -435,7 +436,8 @@ fn registry_order_and_names_are_the_contract() {
             "bias_step",
             "noise_burst",
             "temperature",
-            "g_sensitivity"
+            "g_sensitivity",
+            "vibration"
         ]
     );
     let aliases: Vec<_> = REGISTRY.iter().filter_map(|k| k.alias()).collect();

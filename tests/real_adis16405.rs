@@ -53,6 +53,14 @@ fn read(path: &PathBuf) -> [Vec<f64>; 6] {
     cols
 }
 
+/// The accel axes of the recording's columns, with their names.
+fn accel_axes(cols: &[Vec<f64>; 6]) -> [(Axis, &[f64]); 3] {
+    [(Axis::AccelX, &cols[3][..]), (Axis::AccelY, &cols[4][..]), (Axis::AccelZ, &cols[5][..])]
+}
+
+/// The accelerometers' data sheet noise density, 0.5 mg/√Hz in m/s²/√Hz (imu_noise_params.md).
+const DATASHEET_N: f64 = 0.5e-3 * 9.80665;
+
 fn input(axis: Axis, rate: &[f64]) -> AxisInput<'_> {
     AxisInput { axis, tau0: 1.0 / RATE_HZ, rate, temperature_c: None, accel: None, events: &[] }
 }
@@ -131,7 +139,7 @@ fn adis16405_gyro_z_is_the_low_pass_and_a_21_hz_line() {
 /// between 450 s spans — a resonance driven by ambient vibration has a random amplitude, which one
 /// sinusoid of fixed amplitude does not describe; accel_y's white level is 15 % lower in the first
 /// half hour than in the second), and accel_x/y carry a second line near 10 Hz (z of +25 / −13 at
-/// 0.03–0.1 s) that the vocabulary's one sinusoid per axis cannot add.
+/// 0.03–0.1 s), which `vibration` adds (the next test, with what fails after it).
 #[test]
 fn adis16405_accel_is_the_low_pass_and_a_0_56_hz_line() {
     let Some(path) = recording() else { return };
@@ -139,13 +147,13 @@ fn adis16405_accel_is_the_low_pass_and_a_0_56_hz_line() {
     let opts = FitOptions::default();
     let base = ModelSpec::parse("N,B,K").unwrap();
     let spec = ModelSpec::parse("B,K,bandwidth,sinusoid").unwrap();
-    // Data sheet noise density, 0.5 mg/√Hz in m/s²/√Hz (imu_noise_params.md).
-    let datasheet_n = 0.5e-3 * 9.80665;
-    for (axis, rate) in [(Axis::AccelX, &cols[3]), (Axis::AccelY, &cols[4]), (Axis::AccelZ, &cols[5])] {
+    for (axis, rate) in accel_axes(&cols) {
         let d = diagnose(&input(axis, rate), &base, REGISTRY, &opts).unwrap();
         let names: Vec<&str> = d.suggestions.iter().map(|s| s.effect.as_str()).collect();
         println!("{}: N,B,K fit_error {:.2}, suggestions {names:?}", axis.name(), d.fit.fit_error);
         assert!(names.contains(&"bandwidth") && names.contains(&"sinusoid"), "{}: {names:?}", axis.name());
+        // A second line is weighed only beside a first (`EffectKind::follows`): never from N,B,K.
+        assert!(d.weighed.iter().all(|w| w.effect != "vibration"), "{}: {names:?}", axis.name());
         assert!(
             matches!(names.first(), Some(&"bandwidth") | Some(&"sinusoid")),
             "{}: {names:?}",
@@ -166,13 +174,69 @@ fn adis16405_accel_is_the_low_pass_and_a_0_56_hz_line() {
             n / 9.80665e-3,
             100.0 * share
         );
-        assert!((0.5 * datasheet_n..=2.0 * datasheet_n).contains(&n), "{}: n {n}", axis.name());
+        assert!((0.5 * DATASHEET_N..=2.0 * DATASHEET_N).contains(&n), "{}: n {n}", axis.name());
         assert!((25.0..=330.0).contains(&fc), "{}: cut-off {fc}", axis.name());
         assert!((0.50..=0.65).contains(&line), "{}: line {line}", axis.name());
         assert!(3.0 * f.fit_error <= d.fit.fit_error, "{}: {} -> {}", axis.name(), d.fit.fit_error, f.fit_error);
         if axis == Axis::AccelZ {
             assert!(f.whole_fit_error <= 2.0, "accel_z whole-record fit_error {}", f.whole_fit_error);
             assert!(share >= 0.6, "accel_z: {share}");
+        }
+    }
+}
+
+/// The accel axes with both lines and the louder second half (issue 10, Done 2 — what holds;
+/// docs/model.md, "On the ADIS16405"): from B,K,bandwidth,sinusoid the diagnosis names the second
+/// line (`vibration`) first on accel_x and accel_y, near 10 Hz; with it and `noise_burst` (accel_y's
+/// white level is louder from about 2155 s to the end) the whole-record Allan variance of every
+/// accel axis fits (whole-record fit_error ≤ 2; measured 1.49 / 0.99 / 1.49) and fit_error falls
+/// to 3.17 / 3.07 on accel_x / accel_y (from 5.93 / 7.36), asserted ≤ 3.5. fit_error ≤ 2 does NOT
+/// hold: the spans at 1800–2475 s fail on all three axes (span RMS 4.5–8.8, measured/model 2–4 at
+/// τ = 5–25 s) — a common-mode bias excursion of +3.5 / +2 / +3 mm/s² from 2154 s to about 2450 s,
+/// up and back, which one `bias_step` per axis cannot hold (accel_z 3.45 → 2.80 with one).
+#[test]
+fn adis16405_accel_is_two_lines_and_a_louder_second_half() {
+    let Some(path) = recording() else { return };
+    let cols = read(&path);
+    let opts = FitOptions::default();
+    let base = ModelSpec::parse("B,K,bandwidth,sinusoid").unwrap();
+    let spec = ModelSpec::parse("B,K,bandwidth,sinusoid,vibration,noise_burst").unwrap();
+    for (axis, rate) in accel_axes(&cols) {
+        let f = fit(&input(axis, rate), &spec, REGISTRY, &opts).unwrap();
+        let value = |id: &str, name: &str| f.term(id).unwrap().param(name).unwrap().value;
+        let (n, fc) = (value("bandwidth", "n"), value("bandwidth", "cutoff_hz"));
+        let lines = [value("sinusoid", "frequency_hz"), value("vibration", "frequency_hz")];
+        let burst = [value("noise_burst", "start_s"), value("noise_burst", "end_s"), value("noise_burst", "factor")];
+        println!(
+            "{}: {spec} fit_error {:.2} (whole record {:.2}), n {:.3} mg/sqrt(Hz), cut-off {fc:.1} Hz, \
+             lines {:.3} Hz and {:.3} Hz, burst {:.0}-{:.0} s x{:.3}, green points within 1 sigma {:.0} %",
+            axis.name(),
+            f.fit_error,
+            f.whole_fit_error,
+            n / 9.80665e-3,
+            lines[0],
+            lines[1],
+            burst[0],
+            burst[1],
+            burst[2],
+            100.0 * green_within_one_sigma(&f)
+        );
+        assert!(f.whole_fit_error <= 2.0, "{}: whole-record fit_error {}", axis.name(), f.whole_fit_error);
+        assert!((0.5 * DATASHEET_N..=2.0 * DATASHEET_N).contains(&n), "{}: n {n}", axis.name());
+        assert!((25.0..=330.0).contains(&fc), "{}: cut-off {fc}", axis.name());
+        assert!(lines.iter().any(|f| (0.50..=0.65).contains(f)), "{}: lines {lines:?}", axis.name());
+        if axis == Axis::AccelZ {
+            continue;
+        }
+        let d = diagnose(&input(axis, rate), &base, REGISTRY, &opts).unwrap();
+        let names: Vec<&str> = d.suggestions.iter().map(|s| s.effect.as_str()).collect();
+        println!("{}: {base} suggestions {names:?}", axis.name());
+        assert_eq!(names.first(), Some(&"vibration"), "{}", axis.name());
+        assert!(lines.iter().any(|f| (9.5..=11.0).contains(f)), "{}: lines {lines:?}", axis.name());
+        assert!(f.fit_error <= 3.5, "{}: fit_error {}", axis.name(), f.fit_error);
+        if axis == Axis::AccelY {
+            assert!((2000.0..=2300.0).contains(&burst[0]) && burst[1] >= 3500.0, "accel_y burst {burst:?}");
+            assert!((1.05..=1.25).contains(&burst[2]), "accel_y burst factor {}", burst[2]);
         }
     }
 }

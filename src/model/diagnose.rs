@@ -152,7 +152,9 @@ pub fn diagnose_planned(
     let mut scored: Vec<(Suggestion, f64, FittedModel)> = Vec::new();
     let mut weighed = Vec::new();
     let mut regressed = Vec::new();
-    for &kind in registry.iter().filter(|k| !spec.contains(k.id())) {
+    // A kind that follows another (a second line) is weighed only beside it.
+    let candidate = |k: &&&dyn EffectKind| !spec.contains(k.id()) && k.follows().is_none_or(|f| spec.contains(f.id()));
+    for &kind in registry.iter().filter(candidate) {
         let with = spec.with(kind.id());
         let (test, after) = match kind.domain() {
             Domain::Spectral => {

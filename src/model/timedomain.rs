@@ -1153,6 +1153,10 @@ impl Burst {
 /// perspective of ln, concave in (n, V), so LLR is convex wherever V_in, V_out > 0 (a span of
 /// exactly constant samples, V_in = 0 with n_in > 0, is the one case the hull may miss). LLR ≥ 0
 /// and is 0 for the whole record, so leaving that span out never hides a better one.
+/// Only spans louder than the rest are scored (a burst is louder: [`VariancePath::score`]), and
+/// their maximum is still at a hull vertex: on the louder side LLR grows with V_in at fixed n_in,
+/// so a louder point lies below the upper hull's segment between two vertices, and on that
+/// segment the convex LLR, zero where it crosses factor 1, peaks at a louder vertex.
 ///
 /// # References
 /// S. Boyd, L. Vandenberghe, Convex Optimization, Cambridge University Press, 2004, §3.2.6
@@ -1242,13 +1246,21 @@ impl VariancePath {
         self.pv.len() - 1
     }
 
-    /// The span of blocks [s, e) as a burst; `None` for the whole record or an empty side.
+    /// The span of blocks [s, e) as a burst; `None` for the whole record, an empty side, or a
+    /// span quieter than the rest.
+    ///
+    /// Only louder spans: a burst is louder than the record around it (`noise_burst`'s factor is
+    /// ≥ 1, and a quiet span is expressed as a burst over the rest), so a quiet span, scored, was
+    /// found and its factor clamped to 1 — an estimate of nothing. A noise level that changes
+    /// once, for good, is the louder side as a burst that runs to the record's end (issue 10:
+    /// the ADIS16405's accel_y is 15 % louder after its first half hour, and the search returned
+    /// the quiet 13–2155 s). The hull search stays exact (see [`find_burst`]).
     fn score(&self, s: usize, e: usize) -> Option<Burst> {
         let nb = self.blocks();
         let (vt, ct) = (self.pv[nb], self.pc[nb]);
         let (vi, ci) = (self.pv[e] - self.pv[s], self.pc[e] - self.pc[s]);
         let (vo, co) = (vt - vi, ct - ci);
-        if e - s == nb || ci <= 0.0 || co <= 0.0 {
+        if e - s == nb || ci <= 0.0 || co <= 0.0 || vi / ci < vo / co {
             return None;
         }
         Some(Burst {
@@ -1373,6 +1385,19 @@ mod tests {
         let b = find_burst(&y, 0.01);
         assert!((b.start as i64 - 30_000).abs() <= 100 && (b.end as i64 - 50_000).abs() <= 100, "{b:?}");
         assert!((b.factor - 3.0).abs() < 0.1, "{b:?}");
+    }
+
+    /// Issue 10: a noise level that rises for good is the louder side, a burst up to the record's
+    /// end (the search returned the quiet first part, and its factor was clamped to 1).
+    #[test]
+    fn a_louder_second_half_is_a_burst_to_the_end() {
+        let mut y = noise(100 * 1200, 5);
+        let n = y.len();
+        y[n / 3..].iter_mut().for_each(|v| *v *= 1.15);
+        let b = find_burst(&y, 0.01);
+        // The end within ten 1 s blocks of the record's: the last blocks are as likely quiet as loud.
+        assert!((b.start as i64 - (n / 3) as i64).abs() <= 300 && b.end + 1000 >= n, "{b:?}");
+        assert!((b.factor - 1.15).abs() < 0.02, "{b:?}");
     }
 
     /// White rate noise plus a random walk (K²τ/3 = N²/τ at τ = 5 s), as a fitted model would give.

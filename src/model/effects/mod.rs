@@ -22,6 +22,7 @@ mod ramp;
 mod random_walk;
 mod sinusoid;
 mod temperature;
+mod vibration;
 mod white;
 
 pub use bandwidth::Bandwidth;
@@ -35,11 +36,14 @@ pub use ramp::Ramp;
 pub use random_walk::RandomWalk;
 pub use sinusoid::Sinusoid;
 pub use temperature::Temperature;
+pub use vibration::Vibration;
 pub use white::White;
 
 /// The registry: every effect kind, in the order of `--help`, reports and suggestions.
 ///
-/// Base noise terms first (IEEE 952: Q, N, B, K, R), then the effects beyond them.
+/// Base noise terms first (IEEE 952: Q, N, B, K, R), then the effects beyond them. A new kind goes
+/// at the end: the simulator draws each effect from the random stream of its index here, so an
+/// insertion would change every seeded recording (the committed bags among them).
 pub static REGISTRY: &[&dyn EffectKind] = &[
     &quantization::KIND,
     &white::KIND,
@@ -53,6 +57,7 @@ pub static REGISTRY: &[&dyn EffectKind] = &[
     &noise_burst::KIND,
     &temperature::KIND,
     &g_sensitivity::KIND,
+    &vibration::KIND,
 ];
 
 /// Looks a kind up by id (`white`) or alias (`N`).
@@ -304,6 +309,12 @@ pub trait EffectKind: Sync {
     fn time_estimator(&self) -> Option<&'static dyn TimeEstimator> {
         None
     }
+    /// The kind this one is a further instance of (`vibration`: a second line beside
+    /// `sinusoid`'s): the diagnosis weighs it only for a model that holds that kind. `None` (the
+    /// default): weighed whenever the model lacks it.
+    fn follows(&self) -> Option<&'static dyn EffectKind> {
+        None
+    }
 }
 
 /// A time-domain estimator that lives in its effect's file: how the fitter estimates the effect
@@ -358,6 +369,10 @@ pub(super) trait Extra: Sync {
     fn time_estimator(&self) -> Option<&'static dyn TimeEstimator> {
         None
     }
+    /// As [`EffectKind::follows`].
+    fn follows(&self) -> Option<&'static dyn EffectKind> {
+        None
+    }
 }
 
 /// A registry entry: a [`KindInfo`] with the [`Extra`] methods of its effect.
@@ -395,6 +410,9 @@ impl<E: Extra> EffectKind for Extended<E> {
     }
     fn time_estimator(&self) -> Option<&'static dyn TimeEstimator> {
         self.extra.time_estimator()
+    }
+    fn follows(&self) -> Option<&'static dyn EffectKind> {
+        self.extra.follows()
     }
 }
 

@@ -7,7 +7,7 @@ use super::{
 use rand::{Rng, RngCore};
 use std::f64::consts::PI;
 
-static SCHEMA: &[ParamSpec] = &[
+pub(super) static SCHEMA: &[ParamSpec] = &[
     ParamSpec {
         name: "amplitude",
         unit: "rad/s",

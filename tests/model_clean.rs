@@ -22,6 +22,37 @@ fn clean_recordings_get_no_suggestion() {
     }
 }
 
+/// Known defect, not yet fixed (found 2026-11-25): a clean hour that loses 50 ms of every 10 s on
+/// all axes (0.5 % of the messages) gets false suggestions. Measured at e7cbf5a: seed 111 accel_x
+/// `temperature` (t² 450) and `bias_step` (t² 1052), seed 112 accel_x the same (67, 164) and
+/// accel_y `bias_step` (222); the same recordings without the holes get none (every statistic
+/// below 13). Why: an Allan term that touches a missing sample is left out (src/allan/rate.rs), so
+/// with a hole every 10 s no term longer than about 5 s survives, the fit has no point where B and
+/// K show and sets them to 0, and a random walk tested against white noise alone passes for a step
+/// and for a temperature drift. A fix bridges short holes in the Allan terms, or tests the
+/// time-domain effects against the largest base noise the record admits, as the ramp test does.
+/// (The regression on the accelerometer with holes on all axes, fixed in e059650, is covered by
+/// `timedomain::tests::samples_missing_on_every_axis_do_not_correlate_two_independent_axes`.)
+#[test]
+#[ignore = "known defect: frequent lost messages hide B and K from the fit (see the doc comment)"]
+fn lost_messages_make_no_suggestion() {
+    let nbk = ModelSpec::parse_in("N,B,K", KINDS).unwrap();
+    for seed in [111, 112] {
+        let mut rec = recording(seed, 100.0, 60.0, &[], &[]);
+        let n = rec.axes[0].len();
+        for at in (500..n - 5).step_by(1000) {
+            for axis in rec.axes.iter_mut() {
+                axis[at..at + 5].iter_mut().for_each(|v| *v = f64::NAN);
+            }
+        }
+        for axis in Axis::ALL {
+            let d = diagnose(&rec.input(axis), &nbk, KINDS, &FitOptions::default()).unwrap();
+            let names: Vec<&str> = d.suggestions.iter().map(|s| s.effect.as_str()).collect();
+            assert!(names.is_empty(), "seed {seed} {axis}: {names:?}");
+        }
+    }
+}
+
 /// Fits N,B,K to the three gyro axes of four clean 1 h, 100 Hz recordings: per coefficient the
 /// mean estimate and how many 1σ intervals cover the truth.
 fn hour_fits() -> ([f64; 3], [usize; 3], usize) {

@@ -100,7 +100,8 @@ pub enum Evidence {
     None,
     /// A `sensor_msgs/Temperature` topic.
     Temperature,
-    /// The accelerometer axes of the same IMU.
+    /// The accelerometer axes of the same IMU; a gyro axis only has it (the specific force drives a
+    /// gyro's bias, not an accelerometer's).
     Accel,
     /// A DAVAR event (a time span where the noise changed).
     Events,
@@ -304,8 +305,8 @@ pub trait EffectKind: Sync {
         let _ = (index, tau_min, tau_max);
         None
     }
-    /// The kind's own time-domain estimator, when its file has one ([`TimeEstimator`]); `None`
-    /// (the default): spectral, or estimated by `model::timedomain`.
+    /// The kind's time-domain estimator, in its file ([`TimeEstimator`]); `None` (the default):
+    /// none, as for a spectral kind (the fitter then reports `FitError::NoEstimator`).
     fn time_estimator(&self) -> Option<&'static dyn TimeEstimator> {
         None
     }
@@ -334,7 +335,22 @@ pub trait TimeEstimator: Sync {
     ) -> Result<Estimate, FitError>;
     /// Removes the effect given by its values in schema order from `series`.
     fn remove(&self, values: &[f64], input: &AxisInput<'_>, series: &mut [f64]);
+    /// Where the estimator runs among an axis's time-domain effects, lowest first (equal ranks in
+    /// the order given); the default, [`UNRANKED`], runs after every ranked one.
+    ///
+    /// Why an order: each estimator sees the series with the earlier ones' effects removed. The
+    /// regressions on a driver go first (temperature 0, g-sensitivity 1): they explain the slow
+    /// and the vibration parts a step or burst search would otherwise mistake. Then the step (2),
+    /// then the burst (3), whose search looks at sample-to-sample differences, which a step
+    /// barely touches.
+    fn estimation_rank(&self) -> usize {
+        UNRANKED
+    }
 }
+
+/// The [`TimeEstimator::estimation_rank`] of an estimator that states none, and of a kind
+/// without an estimator: after every ranked one.
+pub const UNRANKED: usize = usize::MAX;
 
 /// The registry entry of one effect file: plain data describing the kind, plus its constructor.
 ///

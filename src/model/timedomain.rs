@@ -745,7 +745,7 @@ impl Plans {
 
 /// The largest even n' ≤ `n` whose prime factors are at most 13 (a few excepted): a length whose
 /// real transform (a complex one of n'/2 points) rustfft does by mixed radix with its butterflies,
-/// in place, with no scratch ([`is_fast`]). Such lengths
+/// in place, with no scratch (see `is_fast`). Such lengths
 /// lie at most 1 % apart above 2·10⁴ (0.3 % above 2·10⁶, 2 % above 2·10³), so little of a record
 /// is left out; below 64 every length is kept.
 pub fn fast_len(n: usize) -> usize {
@@ -1056,7 +1056,7 @@ impl Burst {
 /// perspective of ln, concave in (n, V), so LLR is convex wherever V_in, V_out > 0 (a span of
 /// exactly constant samples, V_in = 0 with n_in > 0, is the one case the hull may miss). LLR ≥ 0
 /// and is 0 for the whole record, so leaving that span out never hides a better one.
-/// Only spans louder than the rest are scored (a burst is louder: [`VariancePath::score`]), and
+/// Only spans louder than the rest are scored (a burst is louder: `VariancePath::score`), and
 /// their maximum is still at a hull vertex: on the louder side LLR grows with V_in at fixed n_in,
 /// so a louder point lies below the upper hull's segment between two vertices, and on that
 /// segment the convex LLR, zero where it crosses factor 1, peaks at a louder vertex.

@@ -2,7 +2,8 @@
 
 use super::{
     check_params, first_index_at, params_of, Domain, Effect, EffectKind, Evidence, Explanation,
-    Extended, Extra, KindInfo, Param, ParamError, ParamSpec, SimContext, SimStage, TimeEstimator,
+    Extended, KindInfo, Param, ParamError, ParamSpec, SimContext, SimStage, TimeEstimator,
+    WithEstimator,
 };
 use crate::model::fit::{AxisInput, FitError};
 use crate::model::timedomain::{find_step, Estimate, NoiseSpectrum, Signature};
@@ -33,17 +34,9 @@ static INFO: KindInfo = KindInfo {
     construct: |v| Ok(Box::new(BiasStep::new(v[0], v[1])?)),
 };
 
-/// What the registry entry of [`BiasStep`] adds to its [`KindInfo`]: its time-domain estimator.
-pub(super) struct BiasStepExtra;
-
-/// The registry entry of [`BiasStep`].
-pub(super) static KIND: Extended<BiasStepExtra> = Extended { info: &INFO, extra: BiasStepExtra };
-
-impl Extra for BiasStepExtra {
-    fn time_estimator(&self) -> Option<&'static dyn TimeEstimator> {
-        Some(&StepSearch)
-    }
-}
+/// The registry entry of [`BiasStep`], with its time-domain estimator.
+pub(super) static KIND: Extended<WithEstimator> =
+    Extended { info: &INFO, extra: WithEstimator(&StepSearch) };
 
 /// The bias step's estimator: the largest contrast between the means of two adjacent windows.
 ///

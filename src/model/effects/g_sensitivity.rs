@@ -2,7 +2,8 @@
 
 use super::{
     accel_axis, check_params, params_of, Domain, Effect, EffectKind, Evidence, Explanation,
-    Extended, Extra, KindInfo, Param, ParamError, ParamSpec, SimContext, SimStage, TimeEstimator,
+    Extended, KindInfo, Param, ParamError, ParamSpec, SimContext, SimStage, TimeEstimator,
+    WithEstimator,
 };
 use crate::model::fit::{AxisInput, FitError};
 use crate::model::timedomain::{finite_mean, regress, Estimate, NoiseSpectrum, Signature, Whitened};
@@ -34,17 +35,9 @@ static INFO: KindInfo = KindInfo {
     construct: |v| Ok(Box::new(GSensitivity::new(v[0], v[1])?)),
 };
 
-/// What the registry entry of [`GSensitivity`] adds to its [`KindInfo`]: its time-domain estimator.
-pub(super) struct GSensitivityExtra;
-
-/// The registry entry of [`GSensitivity`].
-pub(super) static KIND: Extended<GSensitivityExtra> = Extended { info: &INFO, extra: GSensitivityExtra };
-
-impl Extra for GSensitivityExtra {
-    fn time_estimator(&self) -> Option<&'static dyn TimeEstimator> {
-        Some(&OnAccel)
-    }
-}
+/// The registry entry of [`GSensitivity`], with its time-domain estimator.
+pub(super) static KIND: Extended<WithEstimator> =
+    Extended { info: &INFO, extra: WithEstimator(&OnAccel) };
 
 /// The g-sensitivity's estimator: the slope of the gyro rate on each accel axis, the strongest kept.
 ///

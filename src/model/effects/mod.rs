@@ -391,6 +391,15 @@ pub(super) trait Extra: Sync {
     }
 }
 
+/// The [`Extra`] of a kind whose one addition is its time-domain estimator.
+pub(super) struct WithEstimator(pub &'static dyn TimeEstimator);
+
+impl Extra for WithEstimator {
+    fn time_estimator(&self) -> Option<&'static dyn TimeEstimator> {
+        Some(self.0)
+    }
+}
+
 /// A registry entry: a [`KindInfo`] with the [`Extra`] methods of its effect.
 pub(super) struct Extended<E: 'static> {
     /// The kind as data.

@@ -2,8 +2,8 @@
 
 use super::{
     check_params, first_index_at, params_of, std_normal, Domain, Effect, EffectKind, Evidence,
-    Explanation, Extended, Extra, KindInfo, Param, ParamError, ParamSpec, SimContext, SimStage,
-    TimeEstimator,
+    Explanation, Extended, KindInfo, Param, ParamError, ParamSpec, SimContext, SimStage,
+    TimeEstimator, WithEstimator,
 };
 use crate::model::fit::{AxisInput, FitError};
 use crate::model::timedomain::{
@@ -42,17 +42,9 @@ static INFO: KindInfo = KindInfo {
     construct: |v| Ok(Box::new(NoiseBurst::new(v[0], v[1], v[2])?)),
 };
 
-/// What the registry entry of [`NoiseBurst`] adds to its [`KindInfo`]: its time-domain estimator.
-pub(super) struct NoiseBurstExtra;
-
-/// The registry entry of [`NoiseBurst`].
-pub(super) static KIND: Extended<NoiseBurstExtra> = Extended { info: &INFO, extra: NoiseBurstExtra };
-
-impl Extra for NoiseBurstExtra {
-    fn time_estimator(&self) -> Option<&'static dyn TimeEstimator> {
-        Some(&BurstSearch)
-    }
-}
+/// The registry entry of [`NoiseBurst`], with its time-domain estimator.
+pub(super) static KIND: Extended<WithEstimator> =
+    Extended { info: &INFO, extra: WithEstimator(&BurstSearch) };
 
 /// The noise burst's estimator: the span of blocks whose white level is louder than the rest's.
 ///

@@ -1,8 +1,8 @@
 //! `temperature`: a bias proportional to the sensor's temperature.
 
 use super::{
-    check_params, params_of, Domain, Effect, EffectKind, Evidence, Explanation, Extended, Extra,
-    KindInfo, Param, ParamError, ParamSpec, SimContext, SimStage, TimeEstimator,
+    check_params, params_of, Domain, Effect, EffectKind, Evidence, Explanation, Extended,
+    KindInfo, Param, ParamError, ParamSpec, SimContext, SimStage, TimeEstimator, WithEstimator,
 };
 use crate::model::fit::{AxisInput, FitError};
 use crate::model::timedomain::{
@@ -28,17 +28,9 @@ static INFO: KindInfo = KindInfo {
     construct: |v| Ok(Box::new(Temperature::new(v[0])?)),
 };
 
-/// What the registry entry of [`Temperature`] adds to its [`KindInfo`]: its time-domain estimator.
-pub(super) struct TemperatureExtra;
-
-/// The registry entry of [`Temperature`].
-pub(super) static KIND: Extended<TemperatureExtra> = Extended { info: &INFO, extra: TemperatureExtra };
-
-impl Extra for TemperatureExtra {
-    fn time_estimator(&self) -> Option<&'static dyn TimeEstimator> {
-        Some(&OnTemperature)
-    }
-}
+/// The registry entry of [`Temperature`], with its time-domain estimator.
+pub(super) static KIND: Extended<WithEstimator> =
+    Extended { info: &INFO, extra: WithEstimator(&OnTemperature) };
 
 /// The temperature coefficient's estimator: the slope of the rate on the temperature topic.
 ///

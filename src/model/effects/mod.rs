@@ -100,8 +100,8 @@ pub enum Evidence {
     None,
     /// A `sensor_msgs/Temperature` topic.
     Temperature,
-    /// The accelerometer axes of the same IMU; a gyro axis only has it (the specific force drives a
-    /// gyro's bias, not an accelerometer's).
+    /// The accelerometer axes of the same IMU, which only a gyro axis has (the specific force
+    /// drives a gyro's bias; an accel axis is not its own driver).
     Accel,
     /// A DAVAR event (a time span where the noise changed).
     Events,
@@ -354,8 +354,10 @@ pub const UNRANKED: usize = usize::MAX;
 
 /// The registry entry of one effect file: plain data describing the kind, plus its constructor.
 ///
-/// Every effect file declares one `static KIND: KindInfo`; keeping the kind as data (rather than
-/// one hand-written `impl EffectKind` per file) keeps the files to their physics.
+/// Every effect file declares one `KindInfo`: its registry entry `KIND`, or the `info` of that
+/// entry when the kind adds methods of its own (a search range, a time-domain estimator). Keeping
+/// the kind as data (rather than one hand-written `impl EffectKind` per file) keeps the files to
+/// their physics.
 pub struct KindInfo {
     /// Contract id.
     pub id: &'static str,

@@ -3,14 +3,16 @@
 //! A bias step or a noise burst has no τ-law (its Allan signature depends on where it sits in the
 //! record), and temperature or g-sensitivity is best measured against the signal that drives it.
 //! So these effects are estimated on the rate samples, and removed from them before the Allan fit
-//! of the rest. The estimators are chosen by the effect's contract id (docs/design.md §4); every value
-//! goes through the effect's `build`, which validates it.
+//! of the rest. Each effect's estimator lives in its effect's file behind
+//! [`TimeEstimator`](crate::model::effects::TimeEstimator), reached through
+//! [`EffectKind::time_estimator`], so this module never names an effect; it holds the numerical
+//! tools they share (the GLS regressions, the step and burst searches) and the tests the
+//! diagnosis runs. Every value goes through the effect's `build`, which validates it.
 //!
-//! Estimation order: the regressions first (temperature, g-sensitivity: they explain the slow and
-//! the vibration parts a step or burst search would otherwise mistake), then the step, then the
-//! burst (the burst search looks at sample-to-sample differences, which a step barely touches).
+//! Estimation order: the regressions first, then the step, then the burst
+//! ([`estimation_rank`](crate::model::effects::TimeEstimator::estimation_rank) says why).
 
-use crate::model::effects::EffectKind;
+use crate::model::effects::{EffectKind, Evidence, UNRANKED};
 use crate::model::fit::{AxisInput, FitError};
 use crate::model::measure::NoiseClass;
 use nalgebra::{DMatrix, DVector};
@@ -46,30 +48,31 @@ pub enum Signature {
     Trend,
 }
 
-const ORDER: [&str; 4] = ["temperature", "g_sensitivity", "bias_step", "noise_burst"];
-
-/// The time-domain kinds sorted in estimation order (unknown ids last, in the order given).
+/// The time-domain kinds sorted in estimation order
+/// ([`estimation_rank`](crate::model::effects::TimeEstimator::estimation_rank); equal ranks, and
+/// kinds without an estimator last, in the order given).
 pub fn in_estimation_order(kinds: &[&'static dyn EffectKind]) -> Vec<&'static dyn EffectKind> {
-    let rank = |k: &&'static dyn EffectKind| ORDER.iter().position(|&id| id == k.id()).unwrap_or(ORDER.len());
+    let rank = |k: &&'static dyn EffectKind| k.time_estimator().map_or(UNRANKED, |e| e.estimation_rank());
     let mut v = kinds.to_vec();
     v.sort_by_key(rank);
     v
 }
 
-/// True when the recording carries the evidence `kind` needs on this axis.
+/// True when the recording carries the evidence `kind` needs on this axis ([`Evidence`]).
 pub fn has_evidence(kind: &dyn EffectKind, input: &AxisInput<'_>) -> bool {
-    match kind.id() {
-        "temperature" => input.temperature_c.is_some(),
-        "g_sensitivity" => input.accel.is_some() && input.axis.is_gyro(),
-        _ => true,
+    match kind.evidence() {
+        Evidence::Temperature => input.temperature_c.is_some(),
+        Evidence::Accel => input.accel.is_some() && input.axis.is_gyro(),
+        Evidence::None | Evidence::Events => true,
     }
 }
 
-/// Estimates a time-domain effect on `series` (the axis's rate, with earlier effects removed).
+/// Estimates a time-domain effect on `series` (the axis's rate, with earlier effects removed), by
+/// the kind's own [`TimeEstimator`](crate::model::effects::TimeEstimator).
 ///
 /// # Errors
-/// [`FitError::MissingEvidence`] without the driving signal; [`FitError::NoEstimator`] for an id
-/// this module does not know.
+/// [`FitError::MissingEvidence`] without the driving signal; [`FitError::NoEstimator`] for a kind
+/// without an estimator.
 ///
 /// With `noise` (the base noise fitted to the rest), a regression is the GLS estimate against it;
 /// without, the ordinary least-squares first guess.
@@ -79,86 +82,9 @@ pub fn estimate(
     series: &[f64],
     noise: Option<&NoiseSpectrum>,
 ) -> Result<Estimate, FitError> {
-    if let Some(own) = kind.time_estimator() {
-        return own.estimate(input, series, noise);
-    }
-    let missing = |needs| FitError::MissingEvidence {
-        axis: input.axis.name(),
-        effect: kind.id(),
-        needs,
-    };
-    match kind.id() {
-        "temperature" => {
-            let t = input.temperature_c.ok_or_else(|| missing("a temperature topic"))?;
-            // Two GLS estimates, both unbiased under the base noise; the one with the smaller σ.
-            // The tapered differences cancel the linear part of a warm-up (its information is
-            // in the block means) and block means average away a driver faster than a block.
-            let whittle = noise.and_then(|n| Whitened::new(series, n)?.regress(t));
-            let blocks = noise.and_then(|n| block_regression(series, Some(t), n));
-            let gls = [whittle, blocks].into_iter().flatten().min_by(|a, b| a.sigma.total_cmp(&b.sigma));
-            let (c, s) = gls.map_or_else(
-                || {
-                    let (c, s, _) = regress(series, t);
-                    (c, s)
-                },
-                |g| (g.coefficient, g.sigma),
-            );
-            let (_, _, strength) = regress_slow(series, t);
-            Ok(Estimate {
-                values: vec![c],
-                sigmas: vec![Some(s)],
-                is_event: false,
-                strength,
-                signature: Signature::Driven,
-            })
-        }
-        "g_sensitivity" => {
-            let acc = input
-                .accel
-                .filter(|_| input.axis.is_gyro())
-                .ok_or_else(|| missing("the accelerometer axes of the same IMU (gyro axes only)"))?;
-            // GLS against the base noise when it is known: the ordinary least-squares slope on a
-            // wandering record weighs the gyro's and the accelerometer's random walks as heavily
-            // as the motion (measured: −19 % on a 60 min record where the GLS was within 3 %).
-            let whitened = noise.and_then(|n| Whitened::new(series, n));
-            let best = (0..3)
-                .map(|src| {
-                    let gls = whitened.as_ref().and_then(|w| w.regress_measured(acc[src]));
-                    (src, gls.map_or_else(|| regress(series, acc[src]), |g| (g.coefficient, g.sigma, g.t2)))
-                })
-                .max_by(|a, b| a.1 .2.total_cmp(&b.1 .2))
-                .unwrap_or((0, (0.0, 0.0, 0.0)));
-            let (src, (c, s, strength)) = best;
-            Ok(Estimate {
-                values: vec![src as f64, c],
-                sigmas: vec![None, Some(s)],
-                is_event: false,
-                strength,
-                signature: Signature::Driven,
-            })
-        }
-        "bias_step" => {
-            let (i, size, strength) = find_step(series);
-            Ok(Estimate {
-                values: vec![i as f64 * input.tau0, size],
-                sigmas: vec![None, None],
-                is_event: true,
-                strength,
-                signature: Signature::MeanStep,
-            })
-        }
-        "noise_burst" => {
-            let b = find_burst(series, input.tau0);
-            Ok(Estimate {
-                values: vec![b.start as f64 * input.tau0, b.end as f64 * input.tau0, b.factor.max(1.0)],
-                sigmas: vec![None, None, None],
-                is_event: true,
-                strength: b.strength,
-                signature: Signature::WhiteLevel,
-            })
-        }
-        _ => Err(FitError::NoEstimator(kind.id())),
-    }
+    kind.time_estimator()
+        .ok_or(FitError::NoEstimator(kind.id()))?
+        .estimate(input, series, noise)
 }
 
 /// Removes an estimated effect from `series`.
@@ -166,39 +92,16 @@ pub fn remove(kind: &dyn EffectKind, est: &Estimate, input: &AxisInput<'_>, seri
     remove_values(kind, &est.values, input, series);
 }
 
-/// Removes an effect given by its values in schema order (a fitted term's) from `series`.
+/// Removes an effect given by its values in schema order (a fitted term's) from `series`; a kind
+/// without a time-domain estimator removes nothing.
 pub fn remove_values(kind: &dyn EffectKind, v: &[f64], input: &AxisInput<'_>, series: &mut [f64]) {
     if let Some(own) = kind.time_estimator() {
-        return own.remove(v, input, series);
-    }
-    match kind.id() {
-        "temperature" => {
-            if let Some(t) = input.temperature_c {
-                let mean = finite_mean(t);
-                series.iter_mut().zip(t).for_each(|(y, c)| *y -= v[0] * (c - mean));
-            }
-        }
-        "g_sensitivity" => {
-            if let Some(acc) = input.accel {
-                let src = acc[(v[0].round() as usize).min(2)];
-                let mean = finite_mean(src);
-                series.iter_mut().zip(src).for_each(|(y, a)| *y -= v[1] * (a - mean));
-            }
-        }
-        "bias_step" => {
-            let start = (v[0] / input.tau0).round() as usize;
-            series.iter_mut().skip(start).for_each(|y| *y -= v[1]);
-        }
-        "noise_burst" => {
-            let start = (v[0] / input.tau0).round() as usize;
-            let end = ((v[1] / input.tau0).round() as usize).min(series.len());
-            shrink_white(&mut series[start.min(end)..end], v[2], block_len(input.tau0));
-        }
-        _ => {}
+        own.remove(v, input, series);
     }
 }
 
-fn finite_mean(x: &[f64]) -> f64 {
+/// Mean of the finite values of `x`, 0 when there is none.
+pub(crate) fn finite_mean(x: &[f64]) -> f64 {
     let (s, n) = x
         .iter()
         .filter(|v| v.is_finite())
@@ -1282,7 +1185,7 @@ fn ll(v: f64, n: f64) -> f64 {
 }
 
 /// Scales the fast part of `span` down by `factor` around a 30 s moving mean (the slow part).
-fn shrink_white(span: &mut [f64], factor: f64, block: usize) {
+pub(crate) fn shrink_white(span: &mut [f64], factor: f64, block: usize) {
     if factor <= 1.0 || span.is_empty() {
         return;
     }
@@ -1578,6 +1481,22 @@ mod tests {
             let (fast, slow) = (find_burst(&y, 0.01), burst_by_all_spans(&y, 0.01));
             assert_eq!(fast, slow, "seed {seed}");
         }
+    }
+
+    /// The order the removed `ORDER` list of ids gave: temperature, g_sensitivity, bias_step,
+    /// noise_burst, then the rest (ramp, and any kind without an estimator) in the order given.
+    #[test]
+    fn estimation_order_is_regressions_then_step_then_burst_then_the_rest() {
+        use crate::model::effects::{find, Domain, REGISTRY};
+        let ids = |kinds: Vec<&'static dyn EffectKind>| kinds.iter().map(|k| k.id()).collect::<Vec<_>>();
+        let mut kinds: Vec<_> = REGISTRY.iter().copied().filter(|k| k.domain() == Domain::TimeDomain).collect();
+        let order = ["temperature", "g_sensitivity", "bias_step", "noise_burst", "ramp"];
+        assert_eq!(ids(in_estimation_order(&kinds)), order);
+        kinds.reverse();
+        assert_eq!(ids(in_estimation_order(&kinds)), order);
+        let white = find("white").unwrap();
+        kinds.insert(0, white);
+        assert_eq!(ids(in_estimation_order(&kinds)), [&order[..4], &["white", "ramp"]].concat());
     }
 
     #[test]

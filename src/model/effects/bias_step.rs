@@ -2,8 +2,11 @@
 
 use super::{
     check_params, first_index_at, params_of, Domain, Effect, EffectKind, Evidence, Explanation,
-    KindInfo, Param, ParamError, ParamSpec, SimContext, SimStage,
+    Extended, KindInfo, Param, ParamError, ParamSpec, SimContext, SimStage, TimeEstimator,
+    WithEstimator,
 };
+use crate::model::fit::{AxisInput, FitError};
+use crate::model::timedomain::{find_step, Estimate, NoiseSpectrum, Signature};
 use rand::RngCore;
 
 static SCHEMA: &[ParamSpec] = &[
@@ -21,8 +24,7 @@ static SCHEMA: &[ParamSpec] = &[
     },
 ];
 
-/// The registry entry of [`BiasStep`].
-pub(super) static KIND: KindInfo = KindInfo {
+static INFO: KindInfo = KindInfo {
     id: "bias_step",
     alias: None,
     schema: SCHEMA,
@@ -31,6 +33,55 @@ pub(super) static KIND: KindInfo = KindInfo {
     stage: SimStage::Additive,
     construct: |v| Ok(Box::new(BiasStep::new(v[0], v[1])?)),
 };
+
+/// The registry entry of [`BiasStep`], with its time-domain estimator.
+pub(super) static KIND: Extended<WithEstimator> =
+    Extended { info: &INFO, extra: WithEstimator(&StepSearch) };
+
+/// The bias step's estimator: the largest contrast between the means of two adjacent windows.
+///
+/// Why a local contrast ([`find_step`]): a step has no Allan signature of its own (it depends on
+/// where the step sits in the record), and windows of n/30 samples average the white noise while
+/// a random walk does not look like a step over them. The base noise is not used: the step is
+/// located once, and the diagnosis tests it against the base noise. It runs after the
+/// regressions (temperature, g-sensitivity), which explain the slow and the vibration parts it
+/// would otherwise mistake for a step, and before the burst search.
+///
+/// # Formula
+/// ```text
+/// D(i) = mean(y[i..i+W]) − mean(y[i−W..i]),   i* = argmax |D(i)|
+/// time_s = i*·τ0,   size = D(i*)
+/// removed: y[n] −= size   for n ≥ round(time_s/τ0)
+/// ```
+///
+/// # References
+/// Galleani L., "The dynamic Allan variance", IEEE TUFFC 56(3), 2009 (steps seen by the DAVAR).
+struct StepSearch;
+
+impl TimeEstimator for StepSearch {
+    fn estimate(
+        &self,
+        input: &AxisInput<'_>,
+        series: &[f64],
+        _noise: Option<&NoiseSpectrum>,
+    ) -> Result<Estimate, FitError> {
+        let (i, size, strength) = find_step(series);
+        Ok(Estimate {
+            values: vec![i as f64 * input.tau0, size],
+            sigmas: vec![None, None],
+            is_event: true,
+            strength,
+            signature: Signature::MeanStep,
+        })
+    }
+    fn remove(&self, values: &[f64], input: &AxisInput<'_>, series: &mut [f64]) {
+        let start = (values[0] / input.tau0).round() as usize;
+        series.iter_mut().skip(start).for_each(|y| *y -= values[1]);
+    }
+    fn estimation_rank(&self) -> usize {
+        2
+    }
+}
 
 /// A step of `size` in the bias at `time_s`: a shock, a mode switch, a power glitch.
 ///
@@ -66,7 +117,7 @@ impl BiasStep {
     /// # Errors
     /// [`ParamError`] naming the parameter that is NaN or out of bounds.
     pub fn new(time_s: f64, size: f64) -> Result<Self, ParamError> {
-        check_params(KIND.id, SCHEMA, &[time_s, size])?;
+        check_params(INFO.id, SCHEMA, &[time_s, size])?;
         Ok(Self { time_s, size })
     }
 

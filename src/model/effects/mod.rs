@@ -100,7 +100,8 @@ pub enum Evidence {
     None,
     /// A `sensor_msgs/Temperature` topic.
     Temperature,
-    /// The accelerometer axes of the same IMU.
+    /// The accelerometer axes of the same IMU, which only a gyro axis has (the specific force
+    /// drives a gyro's bias; an accel axis is not its own driver).
     Accel,
     /// A DAVAR event (a time span where the noise changed).
     Events,
@@ -304,8 +305,8 @@ pub trait EffectKind: Sync {
         let _ = (index, tau_min, tau_max);
         None
     }
-    /// The kind's own time-domain estimator, when its file has one ([`TimeEstimator`]); `None`
-    /// (the default): spectral, or estimated by `model::timedomain`.
+    /// The kind's time-domain estimator, in its file ([`TimeEstimator`]); `None` (the default):
+    /// none, as for a spectral kind (the fitter then reports `FitError::NoEstimator`).
     fn time_estimator(&self) -> Option<&'static dyn TimeEstimator> {
         None
     }
@@ -334,12 +335,29 @@ pub trait TimeEstimator: Sync {
     ) -> Result<Estimate, FitError>;
     /// Removes the effect given by its values in schema order from `series`.
     fn remove(&self, values: &[f64], input: &AxisInput<'_>, series: &mut [f64]);
+    /// Where the estimator runs among an axis's time-domain effects, lowest first (equal ranks in
+    /// the order given); the default, [`UNRANKED`], runs after every ranked one.
+    ///
+    /// Why an order: each estimator sees the series with the earlier ones' effects removed. The
+    /// regressions on a driver go first (temperature 0, g-sensitivity 1): they explain the slow
+    /// and the vibration parts a step or burst search would otherwise mistake. Then the step (2),
+    /// then the burst (3), whose search looks at sample-to-sample differences, which a step
+    /// barely touches.
+    fn estimation_rank(&self) -> usize {
+        UNRANKED
+    }
 }
+
+/// The [`TimeEstimator::estimation_rank`] of an estimator that states none, and of a kind
+/// without an estimator: after every ranked one.
+pub const UNRANKED: usize = usize::MAX;
 
 /// The registry entry of one effect file: plain data describing the kind, plus its constructor.
 ///
-/// Every effect file declares one `static KIND: KindInfo`; keeping the kind as data (rather than
-/// one hand-written `impl EffectKind` per file) keeps the files to their physics.
+/// Every effect file declares one `KindInfo`: its registry entry `KIND`, or the `info` of that
+/// entry when the kind adds methods of its own (a search range, a time-domain estimator). Keeping
+/// the kind as data (rather than one hand-written `impl EffectKind` per file) keeps the files to
+/// their physics.
 pub struct KindInfo {
     /// Contract id.
     pub id: &'static str,
@@ -372,6 +390,15 @@ pub(super) trait Extra: Sync {
     /// As [`EffectKind::follows`].
     fn follows(&self) -> Option<&'static dyn EffectKind> {
         None
+    }
+}
+
+/// The [`Extra`] of a kind whose one addition is its time-domain estimator.
+pub(super) struct WithEstimator(pub &'static dyn TimeEstimator);
+
+impl Extra for WithEstimator {
+    fn time_estimator(&self) -> Option<&'static dyn TimeEstimator> {
+        Some(self.0)
     }
 }
 

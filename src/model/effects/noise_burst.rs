@@ -2,7 +2,12 @@
 
 use super::{
     check_params, first_index_at, params_of, std_normal, Domain, Effect, EffectKind, Evidence,
-    Explanation, KindInfo, Param, ParamError, ParamSpec, SimContext, SimStage,
+    Explanation, Extended, KindInfo, Param, ParamError, ParamSpec, SimContext, SimStage,
+    TimeEstimator, WithEstimator,
+};
+use crate::model::fit::{AxisInput, FitError};
+use crate::model::timedomain::{
+    block_len, find_burst, shrink_white, Estimate, NoiseSpectrum, Signature,
 };
 use rand::RngCore;
 
@@ -27,8 +32,7 @@ static SCHEMA: &[ParamSpec] = &[
     },
 ];
 
-/// The registry entry of [`NoiseBurst`].
-pub(super) static KIND: KindInfo = KindInfo {
+static INFO: KindInfo = KindInfo {
     id: "noise_burst",
     alias: None,
     schema: SCHEMA,
@@ -37,6 +41,58 @@ pub(super) static KIND: KindInfo = KindInfo {
     stage: SimStage::Additive,
     construct: |v| Ok(Box::new(NoiseBurst::new(v[0], v[1], v[2])?)),
 };
+
+/// The registry entry of [`NoiseBurst`], with its time-domain estimator.
+pub(super) static KIND: Extended<WithEstimator> =
+    Extended { info: &INFO, extra: WithEstimator(&BurstSearch) };
+
+/// The noise burst's estimator: the span of blocks whose white level is louder than the rest's.
+///
+/// Why on first differences ([`find_burst`]): slow effects cancel in them, so a drift or a step
+/// left over does not pass for a louder span; a step barely touches them, which is why this
+/// search runs last among the ranked estimators (after the regressions and the step). The base
+/// noise is not used. Removing the burst scales its span's fast part down by the factor around a
+/// 30 s moving mean, which keeps the slow part (a drift, a random walk) for the Allan fit.
+///
+/// # Formula
+/// ```text
+/// vₖ = Σ_{block k} (y[i+1] − y[i])² / 2,   (s, e) = argmax LLR(s, e) over louder spans
+/// start_s = s·b·τ0,  end_s = e·b·τ0,  factor = max(√((V_in/n_in)/(V_out/n_out)), 1)
+/// removed: y[n] = m[n] + (y[n] − m[n])/factor   inside the span, m the 30 s moving mean
+/// ```
+/// where b is the block length ([`block_len`], about 1 s) and LLR the Gaussian likelihood ratio
+/// of [`find_burst`].
+///
+/// # References
+/// Galleani L., "The dynamic Allan variance", IEEE TUFFC 56(3), 2009; Yang H. et al.,
+/// Electronics Optics & Control 23(10), 2016.
+struct BurstSearch;
+
+impl TimeEstimator for BurstSearch {
+    fn estimate(
+        &self,
+        input: &AxisInput<'_>,
+        series: &[f64],
+        _noise: Option<&NoiseSpectrum>,
+    ) -> Result<Estimate, FitError> {
+        let b = find_burst(series, input.tau0);
+        Ok(Estimate {
+            values: vec![b.start as f64 * input.tau0, b.end as f64 * input.tau0, b.factor.max(1.0)],
+            sigmas: vec![None, None, None],
+            is_event: true,
+            strength: b.strength,
+            signature: Signature::WhiteLevel,
+        })
+    }
+    fn remove(&self, values: &[f64], input: &AxisInput<'_>, series: &mut [f64]) {
+        let start = (values[0] / input.tau0).round() as usize;
+        let end = ((values[1] / input.tau0).round() as usize).min(series.len());
+        shrink_white(&mut series[start.min(end)..end], values[2], block_len(input.tau0));
+    }
+    fn estimation_rank(&self) -> usize {
+        3
+    }
+}
 
 /// The white noise level multiplied by `factor` between `start_s` and `end_s`: vibration from a
 /// motor that runs for a while, electrical interference — the seed paper's test signal.
@@ -74,10 +130,10 @@ impl NoiseBurst {
     /// [`ParamError`] naming the parameter that is NaN or out of bounds, or
     /// [`ParamError::Invalid`] when `end_s` ≤ `start_s`.
     pub fn new(start_s: f64, end_s: f64, factor: f64) -> Result<Self, ParamError> {
-        check_params(KIND.id, SCHEMA, &[start_s, end_s, factor])?;
+        check_params(INFO.id, SCHEMA, &[start_s, end_s, factor])?;
         if end_s <= start_s {
             return Err(ParamError::Invalid {
-                effect: KIND.id,
+                effect: INFO.id,
                 reason: format!("end_s = {end_s} must be after start_s = {start_s}"),
             });
         }

@@ -2,7 +2,7 @@
 
 use super::{
     check_params, params_of, Domain, Effect, EffectKind, Evidence, Explanation, KindInfo, Param,
-    ParamError, ParamSpec, SimContext, SimStage, TimeEstimator, Extended, Extra,
+    ParamError, ParamSpec, SimContext, SimStage, TimeEstimator, Extended, WithEstimator,
 };
 use crate::model::fit::{AxisInput, FitError};
 use crate::model::timedomain::{self, Estimate, LineFit, NoiseSpectrum, Signature};
@@ -25,17 +25,9 @@ static INFO: KindInfo = KindInfo {
     construct: |v| Ok(Box::new(Ramp::new(v[0])?)),
 };
 
-/// What the registry entry of [`Ramp`] adds to its [`KindInfo`]: its time-domain estimator.
-pub(super) struct RampExtra;
-
-/// The registry entry of [`Ramp`].
-pub(super) static KIND: Extended<RampExtra> = Extended { info: &INFO, extra: RampExtra };
-
-impl Extra for RampExtra {
-    fn time_estimator(&self) -> Option<&'static dyn TimeEstimator> {
-        Some(&Trend)
-    }
-}
+/// The registry entry of [`Ramp`], with its time-domain estimator.
+pub(super) static KIND: Extended<WithEstimator> =
+    Extended { info: &INFO, extra: WithEstimator(&Trend) };
 
 /// The ramp's estimator: the slope of the rate on time.
 ///

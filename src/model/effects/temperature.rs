@@ -1,8 +1,13 @@
 //! `temperature`: a bias proportional to the sensor's temperature.
 
 use super::{
-    check_params, params_of, Domain, Effect, EffectKind, Evidence, Explanation, KindInfo, Param,
-    ParamError, ParamSpec, SimContext, SimStage,
+    check_params, params_of, Domain, Effect, EffectKind, Evidence, Explanation, Extended,
+    KindInfo, Param, ParamError, ParamSpec, SimContext, SimStage, TimeEstimator, WithEstimator,
+};
+use crate::model::fit::{AxisInput, FitError};
+use crate::model::timedomain::{
+    block_regression, finite_mean, regress, regress_slow, Estimate, NoiseSpectrum, Signature,
+    Whitened,
 };
 use rand::RngCore;
 
@@ -13,8 +18,7 @@ static SCHEMA: &[ParamSpec] = &[ParamSpec {
     doc: "bias change per kelvin of sensor temperature",
 }];
 
-/// The registry entry of [`Temperature`].
-pub(super) static KIND: KindInfo = KindInfo {
+static INFO: KindInfo = KindInfo {
     id: "temperature",
     alias: None,
     schema: SCHEMA,
@@ -23,6 +27,76 @@ pub(super) static KIND: KindInfo = KindInfo {
     stage: SimStage::Additive,
     construct: |v| Ok(Box::new(Temperature::new(v[0])?)),
 };
+
+/// The registry entry of [`Temperature`], with its time-domain estimator.
+pub(super) static KIND: Extended<WithEstimator> =
+    Extended { info: &INFO, extra: WithEstimator(&OnTemperature) };
+
+/// The temperature coefficient's estimator: the slope of the rate on the temperature topic.
+///
+/// Why two GLS estimates: both are unbiased under the base noise, and the one with the smaller σ
+/// is kept. The tapered differences ([`Whitened::regress`]) cancel the linear part of a warm-up
+/// (its information is in the block means), and block means ([`block_regression`]) average away
+/// a driver faster than a block. Without the base noise, the ordinary least-squares slope
+/// ([`regress`]) is the first guess. The strength is that of the differenced block means
+/// ([`regress_slow`]), which a random walk does not fake. It runs first among the time-domain
+/// estimators (with g-sensitivity after it): the regressions explain the slow and the vibration
+/// parts a step or burst search would otherwise mistake.
+///
+/// # Formula
+/// ```text
+/// with the base noise:   c = the GLS estimate (Whittle or block means) with the smaller σ
+/// without (first guess): c = Σ (T−T̄)(y−ȳ) / Σ (T−T̄)²
+/// removed: y[n] −= c·(T[n] − T̄)
+/// ```
+/// where T is the temperature (°C) at each sample and T̄ its mean over the finite samples.
+///
+/// # References
+/// Whittle P., "Curve and periodogram smoothing", JRSS B 19(1), 1957; Kariya T. & Kurata H.,
+/// Generalized Least Squares, Wiley 2004, §2.
+struct OnTemperature;
+
+impl TimeEstimator for OnTemperature {
+    fn estimate(
+        &self,
+        input: &AxisInput<'_>,
+        series: &[f64],
+        noise: Option<&NoiseSpectrum>,
+    ) -> Result<Estimate, FitError> {
+        let t = input.temperature_c.ok_or_else(|| FitError::MissingEvidence {
+            axis: input.axis.name(),
+            effect: INFO.id,
+            needs: "a temperature topic",
+        })?;
+        let whittle = noise.and_then(|n| Whitened::new(series, n)?.regress(t));
+        let blocks = noise.and_then(|n| block_regression(series, Some(t), n));
+        let gls = [whittle, blocks].into_iter().flatten().min_by(|a, b| a.sigma.total_cmp(&b.sigma));
+        let (c, s) = gls.map_or_else(
+            || {
+                let (c, s, _) = regress(series, t);
+                (c, s)
+            },
+            |g| (g.coefficient, g.sigma),
+        );
+        let (_, _, strength) = regress_slow(series, t);
+        Ok(Estimate {
+            values: vec![c],
+            sigmas: vec![Some(s)],
+            is_event: false,
+            strength,
+            signature: Signature::Driven,
+        })
+    }
+    fn remove(&self, values: &[f64], input: &AxisInput<'_>, series: &mut [f64]) {
+        if let Some(t) = input.temperature_c {
+            let mean = finite_mean(t);
+            series.iter_mut().zip(t).for_each(|(y, c)| *y -= values[0] * (c - mean));
+        }
+    }
+    fn estimation_rank(&self) -> usize {
+        0
+    }
+}
 
 /// A bias of `coefficient_per_k` per kelvin of temperature change: the warm-up drift of MEMS.
 ///
@@ -61,7 +135,7 @@ impl Temperature {
     /// # Errors
     /// [`ParamError`] naming `coefficient_per_k` when it is NaN or out of bounds.
     pub fn new(coefficient_per_k: f64) -> Result<Self, ParamError> {
-        check_params(KIND.id, SCHEMA, &[coefficient_per_k])?;
+        check_params(INFO.id, SCHEMA, &[coefficient_per_k])?;
         Ok(Self { coefficient_per_k })
     }
 

@@ -35,6 +35,19 @@ pub struct Estimate {
     pub signature: Signature,
 }
 
+impl Estimate {
+    /// An effect located in time (a step, a burst): its values in schema order, without 1σ,
+    /// reported as an event.
+    pub fn event(values: Vec<f64>, strength: f64, signature: Signature) -> Self {
+        Estimate { sigmas: vec![None; values.len()], values, is_event: true, strength, signature }
+    }
+
+    /// Coefficients (a regression's, a trend's) with their 1σ, in schema order.
+    pub fn coefficients(values: Vec<f64>, sigmas: Vec<Option<f64>>, strength: f64, signature: Signature) -> Self {
+        Estimate { values, sigmas, is_event: false, strength, signature }
+    }
+}
+
 /// What a time-domain effect changes in the rate, which decides its test (see [`Whitened`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Signature {

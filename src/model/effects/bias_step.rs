@@ -66,13 +66,7 @@ impl TimeEstimator for StepSearch {
         _noise: Option<&NoiseSpectrum>,
     ) -> Result<Estimate, FitError> {
         let (i, size, strength) = find_step(series);
-        Ok(Estimate {
-            values: vec![i as f64 * input.tau0, size],
-            sigmas: vec![None, None],
-            is_event: true,
-            strength,
-            signature: Signature::MeanStep,
-        })
+        Ok(Estimate::event(vec![i as f64 * input.tau0, size], strength, Signature::MeanStep))
     }
     fn remove(&self, values: &[f64], input: &AxisInput<'_>, series: &mut [f64]) {
         let start = (values[0] / input.tau0).round() as usize;

@@ -84,13 +84,7 @@ impl TimeEstimator for OnAccel {
             .max_by(|a, b| a.1 .2.total_cmp(&b.1 .2))
             .unwrap_or((0, (0.0, 0.0, 0.0)));
         let (src, (c, s, strength)) = best;
-        Ok(Estimate {
-            values: vec![src as f64, c],
-            sigmas: vec![None, Some(s)],
-            is_event: false,
-            strength,
-            signature: Signature::Driven,
-        })
+        Ok(Estimate::coefficients(vec![src as f64, c], vec![None, Some(s)], strength, Signature::Driven))
     }
     fn remove(&self, values: &[f64], input: &AxisInput<'_>, series: &mut [f64]) {
         if let Some(acc) = input.accel {

@@ -76,13 +76,8 @@ impl TimeEstimator for BurstSearch {
         _noise: Option<&NoiseSpectrum>,
     ) -> Result<Estimate, FitError> {
         let b = find_burst(series, input.tau0);
-        Ok(Estimate {
-            values: vec![b.start as f64 * input.tau0, b.end as f64 * input.tau0, b.factor.max(1.0)],
-            sigmas: vec![None, None, None],
-            is_event: true,
-            strength: b.strength,
-            signature: Signature::WhiteLevel,
-        })
+        let values = vec![b.start as f64 * input.tau0, b.end as f64 * input.tau0, b.factor.max(1.0)];
+        Ok(Estimate::event(values, b.strength, Signature::WhiteLevel))
     }
     fn remove(&self, values: &[f64], input: &AxisInput<'_>, series: &mut [f64]) {
         let start = (values[0] / input.tau0).round() as usize;

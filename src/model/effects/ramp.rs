@@ -75,13 +75,9 @@ impl TimeEstimator for Trend {
                 })?
             }
         };
-        Ok(Estimate {
-            values: vec![r.clamp(SCHEMA[0].bounds.0, SCHEMA[0].bounds.1)],
-            sigmas: vec![Some(sigma)],
-            is_event: false,
-            strength: if sigma > 0.0 { (r / sigma).powi(2) } else { 0.0 },
-            signature: Signature::Trend,
-        })
+        let strength = if sigma > 0.0 { (r / sigma).powi(2) } else { 0.0 };
+        let value = r.clamp(SCHEMA[0].bounds.0, SCHEMA[0].bounds.1);
+        Ok(Estimate::coefficients(vec![value], vec![Some(sigma)], strength, Signature::Trend))
     }
     fn remove(&self, values: &[f64], input: &AxisInput<'_>, series: &mut [f64]) {
         let mid = 0.5 * series.len().saturating_sub(1) as f64;

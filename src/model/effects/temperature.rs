@@ -79,13 +79,7 @@ impl TimeEstimator for OnTemperature {
             |g| (g.coefficient, g.sigma),
         );
         let (_, _, strength) = regress_slow(series, t);
-        Ok(Estimate {
-            values: vec![c],
-            sigmas: vec![Some(s)],
-            is_event: false,
-            strength,
-            signature: Signature::Driven,
-        })
+        Ok(Estimate::coefficients(vec![c], vec![Some(s)], strength, Signature::Driven))
     }
     fn remove(&self, values: &[f64], input: &AxisInput<'_>, series: &mut [f64]) {
         if let Some(t) = input.temperature_c {

@@ -113,6 +113,19 @@ pub fn remove_values(kind: &dyn EffectKind, v: &[f64], input: &AxisInput<'_>, se
     }
 }
 
+/// Removes a driven bias from `series`: `coefficient` per unit of `driver` about its mean.
+///
+/// # Formula
+/// ```text
+/// y[n] −= c·(x[n] − x̄),   x̄ the mean of the finite x
+/// ```
+/// The temperature coefficient and the g-sensitivity are removed so (a missing driver value
+/// makes the sample missing).
+pub(crate) fn remove_driven(series: &mut [f64], driver: &[f64], coefficient: f64) {
+    let mean = finite_mean(driver);
+    series.iter_mut().zip(driver).for_each(|(y, x)| *y -= coefficient * (x - mean));
+}
+
 /// Mean of the finite values of `x`, 0 when there is none.
 pub(crate) fn finite_mean(x: &[f64]) -> f64 {
     let (s, n) = x

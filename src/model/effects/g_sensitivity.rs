@@ -6,7 +6,7 @@ use super::{
     WithEstimator,
 };
 use crate::model::fit::{AxisInput, FitError};
-use crate::model::timedomain::{finite_mean, regress, Estimate, NoiseSpectrum, Signature, Whitened};
+use crate::model::timedomain::{regress, remove_driven, Estimate, NoiseSpectrum, Signature, Whitened};
 use crate::signal::Axis;
 use rand::RngCore;
 
@@ -88,9 +88,7 @@ impl TimeEstimator for OnAccel {
     }
     fn remove(&self, values: &[f64], input: &AxisInput<'_>, series: &mut [f64]) {
         if let Some(acc) = input.accel {
-            let src = acc[(values[0].round() as usize).min(2)];
-            let mean = finite_mean(src);
-            series.iter_mut().zip(src).for_each(|(y, a)| *y -= values[1] * (a - mean));
+            remove_driven(series, acc[(values[0].round() as usize).min(2)], values[1]);
         }
     }
     fn estimation_rank(&self) -> usize {

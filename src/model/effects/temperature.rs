@@ -6,7 +6,7 @@ use super::{
 };
 use crate::model::fit::{AxisInput, FitError};
 use crate::model::timedomain::{
-    block_regression, finite_mean, regress, regress_slow, Estimate, NoiseSpectrum, Signature,
+    block_regression, regress, regress_slow, remove_driven, Estimate, NoiseSpectrum, Signature,
     Whitened,
 };
 use rand::RngCore;
@@ -83,8 +83,7 @@ impl TimeEstimator for OnTemperature {
     }
     fn remove(&self, values: &[f64], input: &AxisInput<'_>, series: &mut [f64]) {
         if let Some(t) = input.temperature_c {
-            let mean = finite_mean(t);
-            series.iter_mut().zip(t).for_each(|(y, c)| *y -= values[0] * (c - mean));
+            remove_driven(series, t, values[0]);
         }
     }
     fn estimation_rank(&self) -> usize {

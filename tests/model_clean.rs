@@ -22,19 +22,13 @@ fn clean_recordings_get_no_suggestion() {
     }
 }
 
-/// Known defect, not yet fixed (found 2026-11-25): a clean hour that loses 50 ms of every 10 s on
-/// all axes (0.5 % of the messages) gets false suggestions. Measured at e7cbf5a: seed 111 accel_x
-/// `temperature` (t² 450) and `bias_step` (t² 1052), seed 112 accel_x the same (67, 164) and
-/// accel_y `bias_step` (222); the same recordings without the holes get none (every statistic
-/// below 13). Why: an Allan term that touches a missing sample is left out (src/allan/rate.rs), so
-/// with a hole every 10 s no term longer than about 5 s survives, the fit has no point where B and
-/// K show and sets them to 0, and a random walk tested against white noise alone passes for a step
-/// and for a temperature drift. A fix bridges short holes in the Allan terms, or tests the
-/// time-domain effects against the largest base noise the record admits, as the ramp test does.
-/// (The regression on the accelerometer with holes on all axes, fixed in e059650, is covered by
-/// `timedomain::tests::samples_missing_on_every_axis_do_not_correlate_two_independent_axes`.)
+/// A clean hour that loses 50 ms of every 10 s on all axes (0.5 % of the messages) gets no
+/// suggestion. Before the fit bridged such holes (`allan::oavar_rate_bridged`), measured at
+/// e7cbf5a: seed 111 accel_x `temperature` (t² 450) and `bias_step` (t² 1052), seed 112 accel_x
+/// the same (67, 164) and accel_y `bias_step` (222): no Allan term longer than the holes' spacing
+/// survived, B and K were fitted as 0, and the random walk passed for a step and a drift.
+/// tests/lost_messages.rs covers more loss patterns, mixes and rates.
 #[test]
-#[ignore = "known defect: frequent lost messages hide B and K from the fit (see the doc comment)"]
 fn lost_messages_make_no_suggestion() {
     let nbk = ModelSpec::parse_in("N,B,K", KINDS).unwrap();
     for seed in [111, 112] {

@@ -4,6 +4,12 @@
 //! every Allan term whose 2m rate samples include an invalid one is left out and counted, so the
 //! estimate uses only real data and the caller can publish how much was dropped.
 //!
+//! A record that loses a message every few seconds (a robot's network dropping 0.5 % of its
+//! packets) then has no term at all above the spacing of its holes, and no long-τ estimate:
+//! [`oavar_rate_bridged`] is for the fit, which needs one. Only at factors where the rule above
+//! leaves out most terms, it averages each half of a term over the samples it holds, as long as
+//! hardly any is missing (after Sesia & Tavella 2008, who average over the available data).
+//!
 //! EDF: the noise type is identified on the record with its invalid samples removed (the valid
 //! pieces joined), and Greenhall's EDF is evaluated for a gap-free record giving the same number of
 //! terms (N = terms + 2m phase points). This is exact without gaps and a slight overstatement of
@@ -20,6 +26,9 @@ pub struct RatePoint {
     pub skipped: usize,
     /// The identified power-law exponent α, `None` if it could not be identified (EDF then uses α = 0).
     pub alpha: Option<i32>,
+    /// True when the terms were bridged over missing samples ([`oavar_rate_bridged`]).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub bridged: bool,
 }
 
 /// Overlapping Allan variance of rate data `rate` (NaN = invalid), with EDF and 68.3 % interval.
@@ -60,6 +69,56 @@ pub fn oavar_rate(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<AllanPoint>
 /// assert_eq!((p[0].point.terms, p[0].skipped), (5, 2));
 /// ```
 pub fn oavar_rate_counted(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<RatePoint> {
+    rate_points(rate, tau0, factors, false)
+}
+
+/// Most a bridged half of a term may miss, as a fraction of its m samples.
+///
+/// Why 2 %: a half averaged over v < m white-noise samples has variance σ²/v, so a term's
+/// expectation rises by at most m/v − 1 ≈ 2 % at the limit, well inside the 1σ interval of any
+/// long-τ estimate (a 1 h record has at most a few hundred independent terms at τ ≥ 10 s); at the
+/// long τ that need bridging the noise is flicker or random walk, whose half-means a few missing
+/// samples hardly move.
+pub const BRIDGE_MAX_MISSING: f64 = 0.02;
+
+/// [`oavar_rate_counted`], but at a factor where the gap rule leaves out more terms than it keeps,
+/// the terms are bridged over missing samples.
+///
+/// Use this where an estimate at every τ matters more than the strict rule (the fit's measured
+/// Allan variance): a record with a short hole every few seconds keeps its long τ. Without invalid
+/// samples, or where the rule keeps most terms, the points are [`oavar_rate_counted`]'s, bit for bit.
+///
+/// # Formula
+/// A bridged term averages each half over the samples it holds, with v₁, v₂ of its m samples
+/// valid (at most [`BRIDGE_MAX_MISSING`]·m missing from each, else the term is left out):
+/// ```text
+/// ȳ₁ = mean of the valid y[i .. i+m],   ȳ₂ = mean of the valid y[i+m .. i+2m]
+/// σ²(τ) = Σ_{i bridged} (ȳ₂ − ȳ₁)² / (2·terms)
+/// ```
+/// which is the strict term where no sample is missing (ȳ₂ − ȳ₁ is the second difference of the phase over τ).
+///
+/// # Reference
+/// Sesia I., Tavella P., "Estimating the Allan variance in the presence of long periods of
+/// missing data and outliers", Metrologia 45 (2008) S134; the bias of such averages for strongly
+/// gapped data: Sesia I., Galleani L., Tavella P., IEEE TUFFC 66(10) (2019) 1667.
+///
+/// ```
+/// let mut rate: Vec<f64> = (0..4000).map(|i| ((i * 7919) % 13) as f64 - 6.0).collect();
+/// for at in (100..4000).step_by(200) {
+///     rate[at] = f64::NAN; // one sample lost every 200
+/// }
+/// let strict = fdavar::allan::oavar_rate_counted(&rate, 1.0, &[10, 500]);
+/// let bridged = fdavar::allan::oavar_rate_bridged(&rate, 1.0, &[10, 500]);
+/// assert_eq!(strict.len(), 1); // no term of 1000 samples avoids every hole
+/// assert_eq!(bridged[0], strict[0]); // m = 10 keeps most terms: the same point
+/// assert!(bridged[1].bridged && bridged[1].point.terms > 2900);
+/// ```
+pub fn oavar_rate_bridged(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<RatePoint> {
+    rate_points(rate, tau0, factors, true)
+}
+
+/// The points of [`oavar_rate_counted`] (`bridge` false) or [`oavar_rate_bridged`].
+fn rate_points(rate: &[f64], tau0: f64, factors: &[usize], bridge: bool) -> Vec<RatePoint> {
     if !(tau0.is_finite() && tau0 > 0.0) {
         return Vec::new();
     }
@@ -106,7 +165,11 @@ pub fn oavar_rate_counted(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<Rat
     usable
         .iter()
         .zip(sums)
-        .filter_map(|(&m, Terms { sum, terms, skipped })| {
+        .map(|(&m, strict)| {
+            let bridged = bridge && strict.terms < strict.skipped;
+            (m, if bridged { bridged_sums(&x, &bad, m) } else { strict }, bridged)
+        })
+        .filter_map(|(m, Terms { sum, terms, skipped }, bridged)| {
             if terms == 0 {
                 return None;
             }
@@ -127,6 +190,7 @@ pub fn oavar_rate_counted(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<Rat
                 point,
                 skipped,
                 alpha,
+                bridged,
             })
         })
         .collect()
@@ -153,6 +217,29 @@ impl Terms {
             self.skipped += 1;
         }
     }
+}
+
+/// The bridged [`Terms`] of factor `m` ([`oavar_rate_bridged`]): each half's sum of valid
+/// samples is a phase difference (an invalid sample adds 0 to `x`), scaled to m samples.
+fn bridged_sums(x: &[f64], bad: &[usize], m: usize) -> Terms {
+    let allowed = (BRIDGE_MAX_MISSING * m as f64).floor() as usize;
+    // The half [a, a+m) scaled to m samples: m/v·(x[a+m] − x[a]), None with too few samples.
+    let half = |a: usize| {
+        let missing = bad[a + m] - bad[a];
+        (missing <= allowed && missing < m).then(|| (x[a + m] - x[a]) * (m as f64 / (m - missing) as f64))
+    };
+    let mut acc = Terms::default();
+    for i in 0..x.len() - 2 * m {
+        match (half(i), half(i + m)) {
+            (Some(first), Some(second)) => {
+                let d = second - first;
+                acc.sum += d * d;
+                acc.terms += 1;
+            }
+            _ => acc.skipped += 1,
+        }
+    }
+    acc
 }
 
 /// Factors summed side by side in one pass.
@@ -329,6 +416,51 @@ mod tests {
                 prop_assert_eq!(t.sum.to_bits(), want.sum.to_bits(), "m = {}", m);
                 prop_assert_eq!((t.terms, t.skipped), (want.terms, want.skipped));
             }
+        }
+    }
+
+    proptest! {
+        // Bridged: each point is the strict one where the rule keeps most terms, and otherwise
+        // the mean of the literal terms (ȳ₂ − ȳ₁)²/2 over the valid samples of each half, a half
+        // missing at most BRIDGE_MAX_MISSING·m of its samples.
+        #[test]
+        fn bridged_points_are_the_literal_half_means(y in prop::collection::vec(-10f64..10.0, 400..900), every in 40usize..120, offset in 0usize..40) {
+            let mut y = y;
+            let n = y.len();
+            for at in (offset..n).step_by(every) { y[at] = f64::NAN; }
+            let factors: Vec<usize> = (1..=n / 3).step_by(7).collect();
+            let strict = oavar_rate_counted(&y, 1.0, &factors);
+            let bridged = oavar_rate_bridged(&y, 1.0, &factors);
+            let mut k = 0;
+            for &m in &factors {
+                let s = strict.iter().find(|p| p.point.m == m);
+                let b = bridged.iter().find(|p| p.point.m == m);
+                if s.is_some_and(|s| s.point.terms >= s.skipped) {
+                    prop_assert_eq!(b, s);
+                    continue;
+                }
+                let allowed = (BRIDGE_MAX_MISSING * m as f64).floor() as usize;
+                let half = |w: &[f64]| {
+                    let valid: Vec<f64> = w.iter().copied().filter(|v| v.is_finite()).collect();
+                    (m - valid.len() <= allowed && !valid.is_empty()).then(|| valid.iter().sum::<f64>() / valid.len() as f64)
+                };
+                let terms: Vec<f64> = (0..=n - 2 * m)
+                    .filter_map(|i| Some((half(&y[i + m..i + 2 * m])? - half(&y[i..i + m])?).powi(2) / 2.0))
+                    .collect();
+                match b {
+                    None => prop_assert!(terms.is_empty(), "m = {}", m),
+                    Some(b) => {
+                        k += 1;
+                        prop_assert!(b.bridged);
+                        prop_assert_eq!(b.point.terms, terms.len());
+                        prop_assert_eq!(b.point.terms + b.skipped, n + 1 - 2 * m);
+                        let want = terms.iter().sum::<f64>() / terms.len() as f64;
+                        prop_assert!((b.point.avar - want).abs() <= 1e-9 * want, "m = {}: {} vs {}", m, b.point.avar, want);
+                    }
+                }
+            }
+            // Holes 40–120 samples apart: some factor up to n/3 always needs the bridge.
+            prop_assert!(k > 0 || factors.iter().all(|&m| 2 * m < every), "no bridged factor");
         }
     }
 

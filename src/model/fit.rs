@@ -29,7 +29,7 @@ use crate::allan::{AllanPoint, TauGrid};
 use crate::model::effects::{
     unit_on_axis, Domain, Effect, EffectKind, OutputContext, ParamError, SimStage,
 };
-use crate::allan::oavar_rate;
+use crate::allan::oavar_rate_bridged;
 use crate::model::measure::{chi2_interval, edf_for_mix, NoiseClass};
 use crate::model::nnls::{nnls, NnlsError};
 use crate::model::spec::{ModelSpec, SpecError};
@@ -253,6 +253,10 @@ pub struct FitPoint {
     pub ci: (f64, f64),
     /// z = (measured − model) / (model·√(2/EDF)).
     pub z: f64,
+    /// True when the measurement bridged missing samples: at this τ the gap rule would have
+    /// left out most terms ([`crate::allan::oavar_rate_bridged`]).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub bridged: bool,
 }
 
 /// A noise model fitted to one axis.
@@ -338,7 +342,7 @@ fn measure_spans(series: &[f64], tau0: f64, opts: &FitOptions) -> Vec<SpanMeasur
                     start_s: a as f64 * tau0,
                     end_s: b as f64 * tau0,
                 },
-                points: oavar_rate(&series[a..b], tau0, &opts.grid.factors(max_m.max(1))),
+                points: measure(&series[a..b], tau0, &opts.grid.factors(max_m.max(1))).0,
             }
         })
         .collect()
@@ -479,6 +483,14 @@ pub fn fit(
     prepared.fit_spectral(spec, &prepared.spectral_kinds, opts)
 }
 
+/// The Allan variance the fit reads: [`oavar_rate_bridged`], so that a record losing a message
+/// every few seconds keeps its long τ; with the factors that were bridged.
+fn measure(series: &[f64], tau0: f64, factors: &[usize]) -> (Vec<AllanPoint>, Vec<usize>) {
+    let points = oavar_rate_bridged(series, tau0, factors);
+    let bridged = points.iter().filter(|p| p.bridged).map(|p| p.point.m).collect();
+    (points.into_iter().map(|p| p.point).collect(), bridged)
+}
+
 /// The base noise of `series` as the spectral `kinds` fitted to its Allan variance describe it
 /// (what the time-domain regressions are weighed against); `None` without spectral kinds or when
 /// the fit fails.
@@ -492,7 +504,7 @@ fn noise_of(
         return None;
     }
     let max_m = ((series.len() as f64) * opts.max_m_fraction).floor() as usize;
-    let points = oavar_rate(series, tau0, &opts.grid.factors(max_m.max(1)));
+    let (points, _) = measure(series, tau0, &opts.grid.factors(max_m.max(1)));
     let fit = fit_curve(&points, kinds, opts.weight_iterations).ok()?;
     let taus: Vec<f64> = fit.points.iter().map(|p| p.tau).collect();
     Some(NoiseSpectrum::from_curves(
@@ -510,6 +522,8 @@ pub struct Prepared {
     axis: Axis,
     /// The measured Allan variance of the cleaned series.
     pub points: Vec<AllanPoint>,
+    /// The factors of `points` measured across missing samples.
+    bridged: Vec<usize>,
     time_terms: Vec<FittedTerm>,
     events: Vec<Event>,
     spans: Vec<SpanMeasure>,
@@ -594,10 +608,11 @@ pub fn prepare(
     }
     let max_m = ((series.len() as f64) * opts.max_m_fraction).floor() as usize;
     let factors = opts.grid.factors(max_m.max(1));
-    let points = oavar_rate(&series, input.tau0, &factors);
+    let (points, bridged) = measure(&series, input.tau0, &factors);
     Ok(Prepared {
         axis: input.axis,
         points,
+        bridged,
         time_terms,
         events,
         spans: measure_spans(&series, input.tau0, opts),
@@ -629,7 +644,10 @@ impl Prepared {
         kinds: &[&'static dyn EffectKind],
         opts: &FitOptions,
     ) -> Result<FittedModel, FitError> {
-        let sf = fit_points(&self.points, kinds, opts.weight_iterations, self.samples)?;
+        let mut sf = fit_points(&self.points, kinds, opts.weight_iterations, self.samples)?;
+        for p in sf.points.iter_mut() {
+            p.bridged = self.bridged.contains(&p.m);
+        }
         let (spans, span_z): (Vec<SpanCheck>, Vec<Vec<f64>>) =
             self.spans.iter().map(|m| check_span(m, &sf)).unzip();
         let span_fit_error = rms(&span_z.concat());
@@ -1307,6 +1325,7 @@ impl<'a> Problem<'a> {
                 edf: sol.edf[i],
                 ci: chi2_interval(p.avar, sol.edf[i]),
                 z: sol.z[i],
+                bridged: false,
             })
             .collect();
         let taus: Vec<f64> = points.iter().map(|p| p.tau).collect();

@@ -257,6 +257,10 @@ fn invalid_specs_name_the_field() {
         ("rate_hz: 100", "rate_hz: -100", "rate_hz"),
         ("duration_s: 60", "duration_s: 0.001", "duration_s"),
         ("duration_s: 60", "duration_s: 1.0e9", "duration_s"),
+        ("seed: 7", "seed: 7\nlost_messages: { probability: 0.7 }", "lost_messages.probability"),
+        ("seed: 7", "seed: 7\nlost_messages: { every_s: 1, length_s: 0.6 }", "lost_messages.length_s"),
+        ("seed: 7", "seed: 7\nlost_messages: { length_s: 0.1 }", "lost_messages.length_s"),
+        ("seed: 7", "seed: 7\nlost_messages: { every_s: -1 }", "lost_messages.every_s"),
         (
             x,
             "gyro_x: { N: { n: 1.0e-3 }, bias_step: { time_s: 60, size: 1 }",
@@ -285,4 +289,28 @@ fn invalid_specs_name_the_field() {
         matches!(&err, SimError::Yaml(m) if m.contains("sed")),
         "{err}"
     );
+}
+
+/// Lost messages leave the bag, not the sensor: the messages that arrive carry the values and
+/// stamps of the same spec without losses, the lost ones are those the spec asks for, and the
+/// truth counts them.
+#[test]
+fn lost_messages_leave_holes_and_change_no_value() {
+    let whole = simulate(&spec()).unwrap();
+    let mut lossy = spec();
+    lossy.lost_messages = Some(fdavar::sim::LostMessages { probability: 0.02, every_s: Some(10.0), length_s: 0.3 });
+    let holed = simulate(&lossy).unwrap();
+    let kept: std::collections::HashSet<i64> = holed.imu.iter().map(|m| m.stamp_ns).collect();
+    let lost: Vec<usize> = (0..whole.imu.len()).filter(|&i| !kept.contains(&whole.imu[i].stamp_ns)).collect();
+    // Runs of 30 messages from 5 s, 15 s, …, 55 s (6 runs: 180), and about 2 % of the rest.
+    for start in (500..6000).step_by(1000) {
+        assert!((start..start + 30).all(|i| lost.contains(&i)), "run at {start}");
+    }
+    let single = lost.len() - 180;
+    assert!((70..=170).contains(&single), "{single} single losses of 5820 at 2 %");
+    assert_eq!(holed.truth.messages_lost, lost.len());
+    assert_eq!(holed.imu.len() + lost.len(), whole.imu.len());
+    let by_stamp: std::collections::HashMap<i64, _> = whole.imu.iter().map(|m| (m.stamp_ns, m)).collect();
+    assert!(holed.imu.iter().all(|m| by_stamp[&m.stamp_ns] == m));
+    assert_eq!(holed.temperature, whole.temperature);
 }

@@ -24,7 +24,7 @@
 
 mod spec;
 
-pub use spec::{EffectMap, ParamValue, SimSpec, TemperatureProfile, Topics, MAX_SAMPLES};
+pub use spec::{EffectMap, LostMessages, ParamValue, SimSpec, TemperatureProfile, Topics, MAX_SAMPLES};
 
 use crate::model::effects::{Effect, ParamError, SimContext, SimStage};
 use crate::signal::{Axis, ImuSample, TemperatureSample};
@@ -118,6 +118,16 @@ pub struct Truth {
     pub vibration: BTreeMap<String, Vec<TruthEffect>>,
     /// Axis name → sensor effects, in the order they were applied.
     pub axes: BTreeMap<String, Vec<TruthEffect>>,
+    /// The messages lost on the way, as the spec asked (absent: none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lost_messages: Option<LostMessages>,
+    /// How many of the `samples` were lost: the bag holds the others.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub messages_lost: usize,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// A simulated recording, in memory.
@@ -148,6 +158,8 @@ impl Recording {
 pub struct Columns {
     /// The rate samples of each axis, indexed by [`Axis::index`].
     values: [Vec<f64>; 6],
+    /// Per sample, true when its message is lost ([`LostMessages`]); empty when none is.
+    lost: Vec<bool>,
     /// The temperature samples (empty without a temperature profile).
     pub temperature: Vec<TemperatureSample>,
     /// What went in.
@@ -155,25 +167,28 @@ pub struct Columns {
 }
 
 impl Columns {
-    /// Number of IMU samples.
+    /// Number of IMU messages that reach the bag (the samples less the lost messages).
     pub fn len(&self) -> usize {
-        self.values[0].len()
+        self.values[0].len() - self.truth.messages_lost
     }
 
-    /// True when the recording has no IMU samples.
+    /// True when no IMU message reaches the bag.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
 
-    /// The IMU samples in time order, each built from the columns when it is reached.
-    pub fn imu(&self) -> impl ExactSizeIterator<Item = ImuSample> + '_ {
+    /// The IMU samples that reach the bag, in time order, each built from the columns when it is
+    /// reached.
+    pub fn imu(&self) -> impl Iterator<Item = ImuSample> + '_ {
         let period_ns = 1e9 / self.truth.rate_hz;
         let v = &self.values;
-        (0..self.len()).map(move |j| ImuSample {
-            stamp_ns: stamp_ns(self.truth.start_time_ns, j as f64 * period_ns),
-            gyro: [v[0][j], v[1][j], v[2][j]],
-            accel: [v[3][j], v[4][j], v[5][j]],
-        })
+        (0..self.values[0].len())
+            .filter(|&j| !self.lost.get(j).copied().unwrap_or(false))
+            .map(move |j| ImuSample {
+                stamp_ns: stamp_ns(self.truth.start_time_ns, j as f64 * period_ns),
+                gyro: [v[0][j], v[1][j], v[2][j]],
+                accel: [v[3][j], v[4][j], v[5][j]],
+            })
     }
 
     /// The same recording with its samples collected (the columns are freed afterwards).
@@ -356,9 +371,20 @@ pub fn simulate_columns(spec: &SimSpec) -> Result<Columns, SimError> {
             .filter(|a| !plan.axes[a.index()].is_empty())
             .map(|a| (a.name().to_string(), truth_of(&plan.axes[a.index()], a)))
             .collect(),
+        lost_messages: spec.lost_messages,
+        messages_lost: 0,
+    };
+    let lost = spec
+        .lost_messages
+        .map(|l| l.lost(spec.rate_hz, n, spec.seed))
+        .unwrap_or_default();
+    let truth = Truth {
+        messages_lost: lost.iter().filter(|&&l| l).count(),
+        ..truth
     };
     Ok(Columns {
         values,
+        lost,
         temperature,
         truth,
     })

@@ -45,7 +45,87 @@ pub struct SimSpec {
     /// Sensor errors per axis: effect name → parameters.
     #[serde(default)]
     pub axes: BTreeMap<String, EffectMap>,
+    /// Messages lost on the way to the recorder (default: none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lost_messages: Option<LostMessages>,
 }
+
+/// Messages lost between the sensor and the recorder, as a robot's network loses them.
+///
+/// The sensor measured every sample, so the samples that arrive are those of the same spec without
+/// losses; the bag leaves the lost ones out (a reader sees a gap of one or more periods) and
+/// `truth.json` counts them. Why in the simulator: 0.5–1 % lost messages are common on a robot,
+/// and an Allan term that straddles a hole is left out, which at such rates removes every long τ
+/// (docs/model.md, "Lost messages").
+///
+/// ```
+/// use fdavar::sim::LostMessages;
+/// let runs = LostMessages { probability: 0.0, every_s: Some(10.0), length_s: 0.05 };
+/// let lost = runs.lost(100.0, 3000, 7);
+/// // 5 messages from 5 s, 15 s and 25 s on: 500..505, 1500..1505, 2500..2505.
+/// assert_eq!(lost.iter().filter(|&&l| l).count(), 15);
+/// assert!(lost[500..505].iter().all(|&l| l) && !lost[505] && !lost[499]);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LostMessages {
+    /// Probability that a message is lost on its own, in [0, 0.5] (default 0).
+    #[serde(default)]
+    pub probability: f64,
+    /// Period of runs of lost messages, s; the first run starts at every_s/2 (default: no runs).
+    #[serde(default)]
+    pub every_s: Option<f64>,
+    /// Length of each run, s: round(length_s·rate_hz) messages, at most half of every_s (default 0).
+    #[serde(default)]
+    pub length_s: f64,
+}
+
+impl LostMessages {
+    /// Which of `n` messages at `rate_hz` are lost; the single losses draw from their own ChaCha8
+    /// stream of `seed`, so they leave every axis's values unchanged.
+    pub fn lost(&self, rate_hz: f64, n: usize, seed: u64) -> Vec<bool> {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        rng.set_stream(LOST_MESSAGES_STREAM);
+        let runs = self.every_s.map(|every| {
+            let every = ((every * rate_hz).round() as usize).max(1);
+            (every, (self.length_s * rate_hz).round() as usize)
+        });
+        (0..n)
+            .map(|i| {
+                let in_run = runs.is_some_and(|(every, len)| (i + every - every / 2) % every < len);
+                // One draw per message, lost or not, so a run does not shift the later draws.
+                let single = self.probability > 0.0 && rng.random_bool(self.probability);
+                in_run || single
+            })
+            .collect()
+    }
+
+    fn check(&self) -> Result<(), SimError> {
+        if !(0.0..=0.5).contains(&self.probability) {
+            return Err(field_error(
+                "lost_messages.probability",
+                format!("must lie in [0, 0.5], got {}", self.probability),
+            ));
+        }
+        if let Some(every) = self.every_s {
+            positive("lost_messages.every_s", every)?;
+            if !(self.length_s >= 0.0 && self.length_s <= 0.5 * every) {
+                return Err(field_error(
+                    "lost_messages.length_s",
+                    format!("must lie in [0, every_s/2] = [0, {}], got {}", 0.5 * every, self.length_s),
+                ));
+            }
+        } else if self.length_s != 0.0 {
+            return Err(field_error("lost_messages.length_s", "needs every_s, the period of the runs"));
+        }
+        Ok(())
+    }
+}
+
+/// ChaCha8 stream of the single message losses (the effects use (section, axis, effect) streams
+/// below 2¹⁷).
+const LOST_MESSAGES_STREAM: u64 = 2 << 16;
 
 /// Effect name (id or alias) → parameter name → value.
 pub type EffectMap = BTreeMap<String, BTreeMap<String, ParamValue>>;
@@ -368,6 +448,9 @@ impl SimSpec {
             ("topics.temperature", &self.topics.temperature),
         ] {
             check_topic(field, topic)?;
+        }
+        if let Some(lost) = &self.lost_messages {
+            lost.check()?;
         }
         if let Some(t) = &self.temperature {
             for (field, v) in [

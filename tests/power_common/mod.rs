@@ -24,6 +24,7 @@ use fdavar::model::record::Recording;
 use fdavar::model::timedomain::{step_window, trend, NoiseSpectrum, Whitened};
 use fdavar::model::{diagnose, FitOptions, ModelSpec};
 use fdavar::signal::Axis;
+use fdavar::sim::LostMessages;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::fmt::Write;
@@ -126,52 +127,18 @@ pub fn spec_yaml(s: &Setting, axes: &[Axis], extra: &[(Axis, &dyn Effect)], moti
     y
 }
 
-/// Messages lost between the IMU and the recorder, as a robot's network loses them.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Loss {
-    /// Every message arrives.
-    None,
-    /// `len` messages in a row lost every `every` messages (from message `every / 2`).
-    Periodic {
-        /// Period, messages.
-        every: usize,
-        /// Messages lost in a row.
-        len: usize,
-    },
-    /// Each message lost on its own with probability `p` (seeded by the recording's seed).
-    Random {
-        /// Loss probability.
-        p: f64,
-    },
-}
-
-impl Loss {
-    /// Which of `n` messages arrive.
-    pub fn arrives(self, n: usize, seed: u64) -> Vec<bool> {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x10_55);
-        (0..n)
-            .map(|i| match self {
-                Loss::None => true,
-                Loss::Periodic { every, len } => (i + every - every / 2) % every >= len,
-                Loss::Random { p } => !rng.random_bool(p),
-            })
-            .collect()
-    }
-}
-
 /// Simulates a spec and lays it out as a bag is read.
 pub fn record(yaml: &str) -> Recording {
-    record_losing(yaml, Loss::None)
+    record_losing(yaml, None)
 }
 
-/// [`record`] with the messages `loss` drops left out before the layout (which marks each
-/// missing sample invalid, as it does for a bag).
-pub fn record_losing(yaml: &str, loss: Loss) -> Recording {
-    let spec = fdavar::sim::SimSpec::from_yaml(yaml).unwrap_or_else(|e| panic!("{e}\n{yaml}"));
+/// [`record`] of the spec with `loss` (the simulator's `lost_messages:`): the layout marks each
+/// missing sample invalid, as it does for a bag.
+pub fn record_losing(yaml: &str, loss: Option<LostMessages>) -> Recording {
+    let mut spec = fdavar::sim::SimSpec::from_yaml(yaml).unwrap_or_else(|e| panic!("{e}\n{yaml}"));
+    spec.lost_messages = loss;
     let sim = fdavar::sim::simulate(&spec).unwrap_or_else(|e| panic!("{e}\n{yaml}"));
-    let arrives = loss.arrives(sim.imu.len(), spec.seed);
-    let imu: Vec<_> = sim.imu.iter().zip(&arrives).filter(|(_, &a)| a).map(|(m, _)| *m).collect();
-    Recording::from_samples(&imu, &sim.temperature).unwrap()
+    Recording::from_samples(&sim.imu, &sim.temperature).unwrap()
 }
 
 /// The base noise of `axis` under the setting's mix, exact for the three power laws.
@@ -367,11 +334,11 @@ pub struct Outcome {
 
 /// Simulates `hidden` in the setting, diagnoses its axis with N,B,K and scores the outcome.
 pub fn run(s: &Setting, hidden: &Hidden) -> Outcome {
-    run_losing(s, hidden, Loss::None)
+    run_losing(s, hidden, None)
 }
 
 /// [`run`] on a recording that lost messages.
-pub fn run_losing(s: &Setting, hidden: &Hidden, loss: Loss) -> Outcome {
+pub fn run_losing(s: &Setting, hidden: &Hidden, loss: Option<LostMessages>) -> Outcome {
     let mut axes = vec![hidden.axis];
     if hidden.motion.is_some() {
         axes.extend([Axis::AccelX, Axis::AccelY, Axis::AccelZ].into_iter().filter(|a| *a != hidden.axis));
@@ -411,11 +378,11 @@ pub fn run_losing(s: &Setting, hidden: &Hidden, loss: Loss) -> Outcome {
 
 /// Diagnoses every axis of a clean six-axis recording; returns per axis the effects suggested.
 pub fn clean(s: &Setting) -> Vec<Vec<String>> {
-    clean_losing(s, Loss::None)
+    clean_losing(s, None)
 }
 
 /// [`clean`] on a recording that lost messages.
-pub fn clean_losing(s: &Setting, loss: Loss) -> Vec<Vec<String>> {
+pub fn clean_losing(s: &Setting, loss: Option<LostMessages>) -> Vec<Vec<String>> {
     let rec = record_losing(&spec_yaml(s, &Axis::ALL, &[], &[]), loss);
     let nbk = ModelSpec::parse_in("N,B,K", REGISTRY).unwrap();
     Axis::ALL

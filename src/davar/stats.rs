@@ -197,6 +197,20 @@ mod tests {
     use super::*;
 
     #[test]
+    fn chi2_factors_keep_the_bits_of_statrs_inversion() {
+        // The factors as this file computed them before `allan::edf` held the one implementation:
+        // the engine's intervals and change events depend on these bits.
+        use statrs::distribution::{ChiSquared, ContinuousCDF};
+        for edf in [1.0, 7.5, 332.4, 5e4] {
+            let chi = ChiSquared::new(edf).unwrap();
+            let (lo, hi) = chi2_factors(edf, ONE_SIGMA_LOW);
+            assert_eq!(lo.to_bits(), (edf / chi.inverse_cdf(1.0 - ONE_SIGMA_LOW)).to_bits());
+            assert_eq!(hi.to_bits(), (edf / chi.inverse_cdf(ONE_SIGMA_LOW)).to_bits());
+        }
+        assert_eq!(chi2_factors(0.0, ONE_SIGMA_LOW), (0.0, f64::INFINITY));
+    }
+
+    #[test]
     fn interval_brackets_the_estimate_and_narrows_with_terms() {
         let mut c = IntervalCache::new(ONE_SIGMA_LOW);
         let small = c.point(1, 1.0, 2.0, 20);

@@ -157,6 +157,25 @@ mod tests {
     use super::*;
 
     #[test]
+    fn chi2_interval_keeps_the_bits_of_its_own_statrs_formula() {
+        // The interval as this file computed it before `allan::edf` held the one implementation:
+        // the fit's CSV and figure bounds depend on these bits.
+        use statrs::distribution::{ChiSquared, ContinuousCDF};
+        for edf in [1.0, 3.5, 20.0, 800.0, 5e4] {
+            let chi = ChiSquared::new(edf).unwrap();
+            let lo = chi.inverse_cdf(0.5 + 0.6827 / 2.0);
+            let hi = chi.inverse_cdf(0.5 - 0.6827 / 2.0);
+            let (got_lo, got_hi) = chi2_interval(2.5, edf);
+            assert_eq!(got_lo.to_bits(), (2.5 * edf / lo).to_bits(), "edf {edf}");
+            assert_eq!(got_hi.to_bits(), (2.5 * edf / hi).to_bits(), "edf {edf}");
+        }
+        // Why the level survives the move: (1 − c)/2 and 1 − (1 − c)/2 are exactly 0.5 ∓ c/2.
+        let p = (1.0 - FIT_CONFIDENCE) / 2.0;
+        assert_eq!(p, 0.5 - FIT_CONFIDENCE / 2.0);
+        assert_eq!(1.0 - p, 0.5 + FIT_CONFIDENCE / 2.0);
+    }
+
+    #[test]
     fn edf_formulas_behave() {
         for class in [
             NoiseClass::WhitePm,

@@ -123,3 +123,64 @@ pub fn tau_correlation(taus: &[f64], length: &[f64]) -> DMatrix<f64> {
         (1.0 - NUGGET) * smooth + if i == j { NUGGET } else { 0.0 }
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::effects::{find, id};
+    use crate::model::fit::exact_points;
+    use crate::model::fit::scoring::z_scores;
+
+    #[test]
+    fn correlation_of_a_constant_length_is_the_gaussian_in_ln_tau() {
+        let l = NoiseClass::WhiteFm.correlation_length();
+        let taus = [1.0, 2.0, 8.0];
+        let r = tau_correlation(&taus, &[l; 3]);
+        let rho = |t2: f64, t1: f64| (-((t2 / t1).ln() / l).powi(2)).exp();
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs().max(1e-300);
+        for i in 0..3 {
+            assert!(close(r[(i, i)], 1.0));
+            for j in 0..3 {
+                assert_eq!(r[(i, j)], r[(j, i)]);
+                if i != j {
+                    // ρ = exp(−(ln(τ₂/τ₁)/ℓ)²), shrunk by the nugget η = 0.01.
+                    assert!(close(r[(i, j)], 0.99 * rho(taus[j], taus[i])), "R[{i}][{j}] = {}", r[(i, j)]);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn correlation_warps_ln_tau_by_the_local_length() {
+        let taus = [1.0, 2.0, 4.0];
+        let l = [0.84, 1.29, 1.97];
+        let r = tau_correlation(&taus, &l);
+        // u₁ = ln 2/((ℓ₀+ℓ₁)/2), u₂ = u₁ + ln 2/((ℓ₁+ℓ₂)/2).
+        let u1 = 2f64.ln() / (0.5 * (l[0] + l[1]));
+        let u2 = u1 + 2f64.ln() / (0.5 * (l[1] + l[2]));
+        assert!((r[(0, 2)] - 0.99 * (-u2 * u2).exp()).abs() < 1e-12);
+        assert!((r[(1, 2)] - 0.99 * (-(u2 - u1).powi(2)).exp()).abs() < 1e-12);
+        assert!(r.cholesky().is_some());
+    }
+
+    #[test]
+    fn correlated_points_widen_the_variance_of_an_amplitude() {
+        // One white column at two τ with equal EDF e: J = [j, j], j = 1/(c·√(2/e)), and
+        // (Jᵀ R⁻¹ J)⁻¹ = (1 + ρ)·c²/e, where independent points would give c²/e.
+        let c = 4e-6;
+        let points: Vec<_> = exact_points(|tau| c / tau, 1_000_000).into_iter().take(2).collect();
+        let problem = Problem::new(&points, &[find(id::WHITE).unwrap()]).unwrap();
+        let basis = problem.basis(&[]).unwrap();
+        let meas: Vec<f64> = points.iter().map(|p| p.avar).collect();
+        let model: Vec<f64> = basis[0].iter().map(|b| c * b).collect();
+        let e = 1000.0;
+        let edf = vec![e; 2];
+        let z = z_scores(&meas, &model, &edf);
+        let sol = Solution { c: vec![c], meas, model, edf, chi2: 0.0, z, basis };
+        let var = problem.covariance(&[], &sol).unwrap()[0].unwrap();
+        let l = NoiseClass::WhiteFm.correlation_length();
+        let rho = 0.99 * (-(2f64.ln() / l).powi(2)).exp();
+        let want = (1.0 + rho) * c * c / e;
+        assert!((var / want - 1.0).abs() < 1e-9, "{var} vs {want}");
+    }
+}

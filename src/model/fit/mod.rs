@@ -356,3 +356,89 @@ fn fit_points(
     }
     problem.assemble(&kinds, &shapes, &sol, n_params)
 }
+
+/// Allan points of a noise-free record: σ²(τ) = `avar(τ)` exactly at τ = τ0·2ⁱ (τ0 = 0.01 s,
+/// m = 1 … 2¹²), with the term counts of an overlapping estimate from `samples` rate samples.
+///
+/// The fitter's tests start from these: with nothing but the model in the data, what a fit
+/// recovers is told by the fit's own arithmetic, not by noise.
+#[cfg(test)]
+pub(super) fn exact_points(avar: impl Fn(f64) -> f64, samples: usize) -> Vec<AllanPoint> {
+    (0..=12)
+        .map(|i| {
+            let m = 1usize << i;
+            let tau = 0.01 * m as f64;
+            let terms = samples + 1 - 2 * m;
+            let edf = crate::model::measure::edf_oavar(NoiseClass::WhiteFm, terms + 2 * m, m);
+            AllanPoint { m, tau, avar: avar(tau), terms, edf, ci_low: 0.0, ci_high: 0.0 }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::effects::{find, id};
+    use crate::model::measure::chi2_interval;
+
+    #[test]
+    fn fit_curve_recovers_white_and_random_walk_from_their_own_curve() {
+        let (n, k) = (1e-3, 1e-3); // crossing at τ = √3·n/k ≈ 1.7 s, inside the grid
+        let points = exact_points(|tau| n * n / tau + k * k * tau / 3.0, 1_000_000);
+        let kinds = [find(id::WHITE).unwrap(), find(id::RANDOM_WALK).unwrap()];
+        let fit = fit_curve(&points, &kinds, 6).unwrap();
+        // The log fit aims at the χ²-biased log of the estimate (`log_bias`), so a perfect curve
+        // is matched within about 1/EDF, not exactly.
+        let edf_min = fit.points.iter().map(|p| p.edf).fold(f64::INFINITY, f64::min);
+        for (term, want) in fit.terms.iter().zip([n, k]) {
+            let got = term.params[0].value;
+            assert!((got / want - 1.0).abs() < 2.0 / edf_min, "{}: {got} vs {want}", term.effect);
+        }
+        assert_eq!(fit.n_params, 2);
+        assert_eq!(fit.classes, [NoiseClass::WhiteFm, NoiseClass::RandomWalkFm]);
+        assert!(fit.failing_tau.is_empty());
+        // Each point's interval is the fit's χ² interval at its EDF, bit for bit (compared as
+        // bits: statrs' inversion gives a NaN lower bound at the EDF of ~10⁶ of the shortest τ).
+        let bits = |(lo, hi): (f64, f64)| (lo.to_bits(), hi.to_bits());
+        for p in &fit.points {
+            assert_eq!(bits(p.ci), bits(chi2_interval(p.measured, p.edf)));
+        }
+    }
+
+    #[test]
+    fn fit_curve_needs_as_many_points_as_parameters() {
+        let points = exact_points(|tau| 1e-6 / tau, 1_000_000);
+        let kinds = [find(id::WHITE).unwrap(), find(id::RANDOM_WALK).unwrap()];
+        assert_eq!(
+            fit_curve(&points[..1], &kinds, 6).unwrap_err(),
+            FitError::Underdetermined { points: 1, params: 2 }
+        );
+    }
+
+    #[test]
+    fn sample_context_is_the_mean_of_the_finite_samples() {
+        let ctx = SampleContext::of(&[1.0, f64::NAN, 3.0, f64::INFINITY, 5.0]);
+        assert_eq!(ctx.mean_rate, Some(3.0));
+        assert_eq!(SampleContext::of(&[f64::NAN]).mean_rate, None);
+    }
+
+    #[test]
+    fn prepare_rejects_a_bad_period_and_a_short_record() {
+        let rate = vec![0.0; MIN_SAMPLES - 1];
+        let spec = ModelSpec::parse("N").unwrap();
+        let registry = crate::model::effects::REGISTRY;
+        let bad_period = AxisInput {
+            axis: Axis::GyroX,
+            tau0: 0.0,
+            rate: &rate,
+            temperature_c: None,
+            accel: None,
+            events: &[],
+        };
+        let err = prepare(&bad_period, &spec, registry, &FitOptions::default()).unwrap_err();
+        assert_eq!(err, FitError::BadPeriod { tau0: 0.0 });
+        let short = AxisInput { tau0: 0.01, ..bad_period };
+        let err = prepare(&short, &spec, registry, &FitOptions::default()).unwrap_err();
+        assert_eq!(err, FitError::TooShort { axis: "gyro_x", samples: MIN_SAMPLES - 1, needed: MIN_SAMPLES });
+    }
+}

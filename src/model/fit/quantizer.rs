@@ -271,3 +271,54 @@ impl Problem<'_> {
         Ok((if cost.is_finite() { cost } else { f64::MAX }, sol))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::effects::{find, id};
+    use crate::model::fit::exact_points;
+
+    fn problem(points: &[crate::allan::AllanPoint]) -> Problem<'_> {
+        let kinds = [find(id::QUANTIZATION).unwrap(), find(id::WHITE).unwrap()];
+        Problem::new(points, &kinds).unwrap()
+    }
+
+    #[test]
+    fn only_the_quantizer_is_an_output_column() {
+        let points = exact_points(|tau| 1e-6 / tau, 100_000);
+        let p = problem(&points);
+        assert!(p.is_output(0) && !p.is_output(1));
+        // Without an output state the quantizer keeps its IEEE column and nothing is held fixed.
+        assert_eq!(p.output_basis(0, &[]).unwrap(), None);
+        assert_eq!(p.offset(&[]).unwrap(), vec![0.0; points.len()]);
+    }
+
+    #[test]
+    fn the_dither_is_the_angle_structure_function_of_the_other_columns() {
+        let points = exact_points(|tau| 1e-6 / tau, 100_000);
+        let p = problem(&points);
+        // c = [q², n²]: the quantizer is left out, white noise gives D(τ) = τ²·n²/τ = n²·τ.
+        let n2 = 4e-6;
+        for tau in [0.01, 0.1, 1.0] {
+            let d = p.other_noise(&[], &[1e-8, n2], tau).unwrap();
+            assert!((d / (n2 * tau) - 1.0).abs() < 1e-12, "τ = {tau}: {d}");
+        }
+    }
+
+    #[test]
+    fn a_held_quantizer_has_a_zero_column_and_its_curve_in_the_offset() {
+        let points = exact_points(|tau| 1e-6 / tau, 100_000);
+        let mut p = problem(&points);
+        let c = vec![1e-8, 4e-6];
+        let free = OutputState { mean_rate: 0.3, c: c.clone(), fixed: false, jacobian: Vec::new() };
+        let curve = p.output_curve(0, &[], &free).unwrap();
+        p.output = Some(OutputState { fixed: true, ..free.clone() });
+        assert_eq!(p.output_basis(0, &[]).unwrap(), Some(vec![0.0; points.len()]));
+        // No Jacobian: the offset is the quantizer's curve itself.
+        assert_eq!(p.offset(&[]).unwrap(), curve);
+        // Free, the column is that curve per unit squared amplitude.
+        p.output = Some(free);
+        let per_unit: Vec<f64> = curve.iter().map(|v| v / c[0]).collect();
+        assert_eq!(p.output_basis(0, &[]).unwrap(), Some(per_unit));
+    }
+}

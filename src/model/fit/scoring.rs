@@ -136,3 +136,57 @@ pub(super) fn log_bias(edf: f64) -> f64 {
     let nu = edf.max(1.0);
     -1.0 / nu - 1.0 / (3.0 * nu * nu)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn z_is_the_residual_in_standard_deviations_of_the_model() {
+        // sd = model·√(2/edf): 1·√(2/8) = 0.5, 2·√(2/2) = 2, 2·√(2/32) = 0.5 (all exact in f64).
+        let z = z_scores(&[1.5, 0.0, 5.0], &[1.0, 2.0, 2.0], &[8.0, 2.0, 32.0]);
+        assert_eq!(z, [1.0, -1.0, 6.0]);
+        // fit_error = √((1 + 1 + 36)/3).
+        assert_eq!(fit_error(&[1.5, 0.0, 5.0], &[1.0, 2.0, 2.0], &[8.0, 2.0, 32.0]), (38.0f64 / 3.0).sqrt());
+    }
+
+    #[test]
+    fn a_non_positive_model_gives_infinite_or_zero_z() {
+        let z = z_scores(&[1.0, -1.0, 0.0], &[0.0, 0.0, 0.0], &[8.0, 8.0, 8.0]);
+        assert_eq!(z, [f64::INFINITY, f64::NEG_INFINITY, 0.0]);
+        assert_eq!(rms(&[]), 0.0);
+    }
+
+    #[test]
+    fn failing_tau_groups_neighbouring_points_beyond_three() {
+        let tau = [1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0];
+        // |z| = 3 exactly does not fail; a sign change inside a run does not split it.
+        let z = [3.0, 3.5, -4.0, 0.0, 5.0, -3.01, 1.0];
+        assert_eq!(failing_tau(&tau, &z), vec![[2.0, 4.0], [16.0, 32.0]]);
+        // A run open at the last point is closed there.
+        assert_eq!(failing_tau(&tau[..2], &[0.0, 9.0]), vec![[2.0, 2.0]]);
+        assert!(failing_tau(&tau, &[0.0; 7]).is_empty());
+    }
+
+    #[test]
+    fn log_bias_is_the_second_order_digamma_expansion() {
+        assert_eq!(log_bias(10.0), -0.1 - 1.0 / 300.0);
+        // Fewer than one degree of freedom is read as one.
+        assert_eq!(log_bias(0.5), -1.0 - 1.0 / 3.0);
+    }
+
+    #[test]
+    fn log_cost_and_robust_edf_at_a_residual_of_c() {
+        // edf = 8: z = √4·(ln(y/m) − bias) = 3 = C when ln(y/m) = 1.5 + bias.
+        let (m, e) = (2.0, 8.0);
+        let y = m * (1.5 + log_bias(e)).exp();
+        let rounding = 1e-12; // of exp and ln at this size
+        assert!((log_z(y, m, e) - ROBUST_C).abs() < rounding);
+        // Cauchy loss C²·ln(1 + z²/C²) = 9·ln 2 there, and the IRLS weight halves the EDF.
+        assert!((log_cost(&[y], &[m], &[e]) - 9.0 * 2f64.ln()).abs() < 9.0 * rounding);
+        assert!((robust_edf(&[y], &[m], &[e])[0] - 4.0).abs() < 4.0 * rounding);
+        // A non-positive model costs a fixed large amount and keeps its EDF.
+        assert_eq!(log_cost(&[y], &[0.0], &[e]), f64::MAX / 1e3);
+        assert_eq!(robust_edf(&[y], &[0.0], &[e]), [e]);
+    }
+}

@@ -97,3 +97,32 @@ pub(super) fn golden_section(
     }
     Ok(0.5 * (a + b))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::effects::{find, id, Effect, GaussMarkov};
+    use crate::model::fit::exact_points;
+
+    #[test]
+    fn golden_section_finds_the_vertex_of_a_parabola() {
+        let (a, b, iterations) = (0.0, 3.0, 60);
+        let x = golden_section(a, b, iterations, |x| Ok((x - 1.3f64).powi(2))).unwrap();
+        // The vertex stays inside the bracket, which shrinks by 0.618 per iteration.
+        let half_width = 0.5 * (b - a) * 0.618_034f64.powi(iterations as i32);
+        assert!((x - 1.3).abs() <= half_width, "{x}");
+    }
+
+    #[test]
+    fn search_shapes_recovers_a_gauss_markov_time_constant() {
+        let truth = GaussMarkov::new(1e-3, 0.5).unwrap();
+        let points = exact_points(|tau| truth.avar(tau).unwrap(), 1_000_000);
+        let mut problem = Problem::new(&points, &[find(id::GAUSS_MARKOV).unwrap()]).unwrap();
+        let start = problem.initial_shapes();
+        let shapes = problem.search_shapes(start, 3).unwrap();
+        let t = shapes[0].exp();
+        assert!((t / 0.5 - 1.0).abs() < 1e-3, "T = {t}");
+        // The columns muted during the stagewise round all take part again afterwards.
+        assert!(problem.muted.is_empty());
+    }
+}

@@ -280,3 +280,65 @@ impl<'a> Problem<'a> {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::effects::{find, id};
+    use crate::model::fit::exact_points;
+
+    #[test]
+    fn columns_take_the_noise_class_of_their_slope() {
+        let points = exact_points(|tau| 1e-6 / tau, 1_000_000);
+        let kinds: Vec<_> = [id::QUANTIZATION, id::WHITE, id::BIAS_INSTABILITY, id::RANDOM_WALK, id::GAUSS_MARKOV]
+            .iter()
+            .map(|&i| find(i).unwrap())
+            .collect();
+        let problem = Problem::new(&points, &kinds).unwrap();
+        let classes: Vec<NoiseClass> = problem.columns.iter().map(|c| c.class).collect();
+        assert_eq!(
+            classes,
+            [
+                NoiseClass::WhitePm,
+                NoiseClass::WhiteFm,
+                NoiseClass::FlickerFm,
+                NoiseClass::RandomWalkFm,
+                NoiseClass::WhiteFm, // no slope: the most generous EDF
+            ]
+        );
+        // One shape (the Gauss–Markov time constant), started in the middle of its log range
+        // [τmin, 4·τmax] = [0.01 s, 163.84 s].
+        let mid = 0.5 * (0.01f64.ln() + (4.0 * 40.96f64).ln());
+        assert_eq!(problem.initial_shapes(), [mid]);
+    }
+
+    #[test]
+    fn the_basis_is_each_column_per_unit_squared_amplitude() {
+        let points = exact_points(|tau| 1e-6 / tau, 1_000_000);
+        let kinds = [find(id::WHITE).unwrap(), find(id::RANDOM_WALK).unwrap()];
+        let problem = Problem::new(&points, &kinds).unwrap();
+        let basis = problem.basis(&[]).unwrap();
+        for (i, p) in points.iter().enumerate() {
+            assert_eq!(basis[0][i], 1.0 / p.tau); // n²/τ at n = 1
+            assert_eq!(basis[1][i], p.tau / 3.0); // k²·τ/3 at k = 1
+        }
+    }
+
+    #[test]
+    fn solve_recovers_squared_amplitudes_of_an_exact_curve() {
+        let (n2, k2) = (1e-6, 1e-6); // crossing at τ = √3 s, inside the grid
+        let points = exact_points(|tau| n2 / tau + k2 * tau / 3.0, 1_000_000);
+        let kinds = [find(id::WHITE).unwrap(), find(id::RANDOM_WALK).unwrap()];
+        let sol = Problem::new(&points, &kinds).unwrap().solve(&[], 6).unwrap();
+        // The log fit matches the χ²-biased log of the estimates (`log_bias`): within ~1/EDF.
+        let edf_min = sol.edf.iter().copied().fold(f64::INFINITY, f64::min);
+        assert!((sol.c[0] / n2 - 1.0).abs() < 2.0 / edf_min, "{} vs {n2}", sol.c[0]);
+        assert!((sol.c[1] / k2 - 1.0).abs() < 2.0 / edf_min, "{} vs {k2}", sol.c[1]);
+        // The model is the basis weighted by the solution, and z is the contract's.
+        for i in 0..points.len() {
+            let model = sol.c[0] * sol.basis[0][i] + sol.c[1] * sol.basis[1][i];
+            assert!((sol.model[i] / model - 1.0).abs() < 1e-12);
+        }
+        assert_eq!(sol.z, z_scores(&sol.meas, &sol.model, &sol.edf));
+    }
+}

@@ -121,3 +121,104 @@ pub(super) fn failing_spans(spans: &[SpanCheck]) -> Vec<Span> {
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::fit::{FitPoint, FittedTerm};
+    use crate::model::effects::Domain;
+    use crate::model::measure::edf_oavar;
+
+    fn check(start_s: f64, end_s: f64, fit_error: f64) -> SpanCheck {
+        SpanCheck { span: Span { start_s, end_s }, fit_error }
+    }
+
+    #[test]
+    fn failing_spans_merge_overlapping_and_touching_runs() {
+        let spans = [
+            check(0.0, 2.0, 1.0),
+            check(1.0, 3.0, 4.0),
+            check(2.0, 4.0, 5.0),
+            check(3.0, 5.0, 1.0),
+            check(4.0, 6.0, 3.0), // exactly FAILING_Z: holds
+            check(5.0, 7.0, 3.5),
+        ];
+        assert_eq!(
+            failing_spans(&spans),
+            [Span { start_s: 1.0, end_s: 4.0 }, Span { start_s: 5.0, end_s: 7.0 }]
+        );
+    }
+
+    #[test]
+    fn spans_overlap_by_half_and_need_enough_samples() {
+        let opts = FitOptions::default();
+        // 4096 samples hold 4 spans of 1024 (not DEFAULT_SPANS = 8): 7 half-overlapping spans.
+        let series: Vec<f64> = (0..4096).map(|i| (i % 7) as f64).collect();
+        let spans = measure_spans(&series, 0.01, &opts);
+        assert_eq!(spans.len(), 7);
+        for (i, s) in spans.iter().enumerate() {
+            let start = i as f64 * 512.0 * 0.01;
+            assert_eq!(s.span, Span { start_s: start, end_s: start + 1024.0 * 0.01 });
+            // Each span's Allan variance is that of its own 1024 samples, up to m = 1024/3.
+            let own = oavar_rate(&series[i * 512..i * 512 + 1024], 0.01, &opts.grid.factors(341));
+            assert_eq!(s.points, own);
+        }
+        // Fewer than two spans' worth: no span check at all.
+        assert!(measure_spans(&series[..2047], 0.01, &opts).is_empty());
+    }
+
+    #[test]
+    fn check_span_scores_the_whole_record_model_on_the_span() {
+        // A model of one white term, σ² = 1 at every τ of the fit; the span measures 1.1.
+        let fit_points: Vec<FitPoint> = [1usize, 2, 4]
+            .iter()
+            .map(|&m| FitPoint { m, tau: m as f64, measured: 1.0, model: 1.0, edf: 100.0, ci: (0.9, 1.1), z: 0.0 })
+            .collect();
+        let fit = CurveFit {
+            terms: vec![FittedTerm {
+                effect: "white".into(),
+                alias: None,
+                domain: Domain::Spectral,
+                params: Vec::new(),
+                curve: vec![1.0; 3],
+                explanation: String::new(),
+            }],
+            points: fit_points,
+            fit_error: 0.0,
+            chi2: 0.0,
+            failing_tau: Vec::new(),
+            n_params: 1,
+            classes: vec![NoiseClass::WhiteFm],
+        };
+        let point = |m: usize, terms: usize| AllanPoint {
+            m,
+            tau: m as f64,
+            avar: 1.1,
+            terms,
+            edf: 0.0,
+            ci_low: 0.0,
+            ci_high: 0.0,
+        };
+        let measure = SpanMeasure {
+            span: Span { start_s: 0.0, end_s: 10.0 },
+            points: vec![
+                point(1, 4000),
+                point(2, 3000),
+                point(4, 10), // EDF below MIN_SPAN_EDF: left out
+                point(8, 4000), // no τ of the fit: left out
+            ],
+        };
+        let (checked, z) = check_span(&measure, &fit);
+        // z = (1.1 − 1)/(1·√(2/edf)) = 0.1·√(edf/2), edf that of white FM for the span's length.
+        let want: Vec<f64> = [(1usize, 4000usize), (2, 3000)]
+            .iter()
+            .map(|&(m, terms)| 0.1 * (edf_oavar(NoiseClass::WhiteFm, terms + 2 * m, m) / 2.0).sqrt())
+            .collect();
+        assert_eq!(z.len(), 2);
+        for (got, want) in z.iter().zip(&want) {
+            assert!((got / want - 1.0).abs() < 1e-9, "{got} vs {want}");
+        }
+        assert_eq!(checked.span, measure.span);
+        assert_eq!(checked.fit_error, rms(&z));
+    }
+}

@@ -279,3 +279,47 @@ pub(super) fn term_of(effect: &dyn Effect, sigmas: &[Option<f64>], curve: Vec<f6
         explanation: effect.explain().sentence,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::effects::{White, AXIS_UNIT};
+
+    fn value(unit: &str, value: f64, sigma: Option<f64>) -> ParamValue {
+        ParamValue { name: "x".into(), unit: unit.into(), value, sigma }
+    }
+
+    #[test]
+    fn an_unresolved_value_is_bounded_by_two_sigma() {
+        assert_eq!(value("rad/s", 0.0, Some(1.5e-5)).upper_bound(), Some(3e-5));
+        assert_eq!(value("rad/s", 2e-5, Some(1.5e-5)).upper_bound(), None);
+        assert_eq!(value("rad/s", 0.0, None).upper_bound(), None);
+    }
+
+    #[test]
+    fn an_axis_valued_parameter_names_an_accel_axis() {
+        assert_eq!(value(AXIS_UNIT, 2.0, None).axis(), Some(Axis::AccelZ));
+        assert_eq!(value("rad/s", 2.0, None).axis(), None);
+    }
+
+    #[test]
+    fn a_term_carries_the_effect_its_values_and_their_sigmas() {
+        let white = White::new(1e-3).unwrap();
+        let term = term_of(&white, &[Some(2e-5)], vec![1e-6, 5e-7]);
+        assert_eq!(term.effect, "white");
+        assert_eq!(term.alias.as_deref(), Some("N"));
+        assert_eq!(term.domain, Domain::Spectral);
+        assert_eq!(
+            term.param("n"),
+            Some(&ParamValue { name: "n".into(), unit: "rad/s/sqrt(Hz)".into(), value: 1e-3, sigma: Some(2e-5) })
+        );
+        assert_eq!(term.curve, [1e-6, 5e-7]);
+        assert_eq!(term.explanation, white.explain().sentence);
+    }
+
+    #[test]
+    fn default_options_are_those_of_the_contract() {
+        let o = FitOptions::default();
+        assert_eq!((o.max_m_fraction, o.weight_iterations, o.spans), (1.0 / 3.0, 6, DEFAULT_SPANS));
+    }
+}

@@ -247,11 +247,57 @@ fn table_entry(t: &[[(f64, f64); 3]; 7], alpha: i32, d: u32) -> Option<(f64, f64
 /// The two-sided 68.27 % ("one sigma") confidence level, erf(1/√2).
 pub const ONE_SIGMA: f64 = 0.682_689_492_137_085_9;
 
+/// How a χ² quantile is computed: the crate's one χ² inversion, with the two methods its outputs
+/// were made with.
+///
+/// Two methods, not one, because the numbers already printed depend on each: `fdavar allan`'s
+/// bounds on the polished quantile, the fit's 68.3 % bounds (its CSV and figures) and the DAVAR
+/// engine's intervals on statrs' own inversion. Moving them onto one method would change every
+/// bound they print in the last digits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Chi2Inversion {
+    /// Wilson–Hilferty start, polished by Newton steps on statrs' CDF: accurate for any EDF,
+    /// including the 10⁵ and more of long records.
+    Newton,
+    /// statrs' `inverse_cdf` as it is: a fixed, short bisection, inaccurate at very large EDF.
+    Statrs,
+}
+
+/// The q-quantile χ²(q ; ν) of the χ² distribution with `nu` degrees of freedom.
+///
+/// Returns `None` when `nu` is not a valid number of degrees of freedom; with
+/// [`Chi2Inversion::Newton`] also when `nu` is infinite or the result is not a positive finite
+/// number. [`Chi2Inversion::Statrs`] returns statrs' value as it is.
+///
+/// ```
+/// use fdavar::allan::edf::{chi2_quantile, Chi2Inversion};
+/// // χ²(0.5; 100) = 99.33413 (scipy.stats.chi2.ppf)
+/// let q = chi2_quantile(0.5, 100.0, Chi2Inversion::Newton).unwrap();
+/// assert!((q - 99.334_129_235_988_46).abs() < 1e-6);
+/// ```
+pub fn chi2_quantile(q: f64, nu: f64, inversion: Chi2Inversion) -> Option<f64> {
+    let dist = ChiSquared::new(nu).ok()?;
+    match inversion {
+        Chi2Inversion::Statrs => Some(dist.inverse_cdf(q)),
+        Chi2Inversion::Newton if nu.is_finite() => newton_quantile(&dist, q, nu),
+        Chi2Inversion::Newton => None,
+    }
+}
+
+/// The two quantiles that bound a two-sided interval: `(χ²(p_low ; ν), χ²(1 − p_low ; ν))`.
+pub fn chi2_tail_quantiles(p_low: f64, nu: f64, inversion: Chi2Inversion) -> Option<(f64, f64)> {
+    Some((
+        chi2_quantile(p_low, nu, inversion)?,
+        chi2_quantile(1.0 - p_low, nu, inversion)?,
+    ))
+}
+
 /// χ² confidence interval of a variance estimate with `edf` degrees of freedom.
 ///
 /// Returns `(low, high)` for the variance (take square roots for deviations). `confidence` is the
 /// two-sided level, e.g. [`ONE_SIGMA`]. Returns `None` when `edf` is not positive and finite or
-/// `confidence` is outside (0, 1).
+/// `confidence` is outside (0, 1). The quantiles are [`Chi2Inversion::Newton`]'s; see
+/// [`chi2_interval_with`] for the other.
 ///
 /// # Formula
 /// ```text
@@ -269,21 +315,29 @@ pub const ONE_SIGMA: f64 = 0.682_689_492_137_085_9;
 /// assert!((lo - 10.0 / 14.32551).abs() < 1e-5 && (hi - 10.0 / 5.68062).abs() < 1e-5);
 /// ```
 pub fn chi2_interval(avar: f64, edf: f64, confidence: f64) -> Option<(f64, f64)> {
-    if !(edf.is_finite() && edf > 0.0 && confidence > 0.0 && confidence < 1.0) {
+    chi2_interval_with(avar, edf, confidence, Chi2Inversion::Newton)
+}
+
+/// [`chi2_interval`] with the quantiles of `inversion`.
+///
+/// Returns `None` when `edf` is not positive, `confidence` is outside (0, 1) or a quantile is
+/// undefined ([`chi2_quantile`]).
+pub fn chi2_interval_with(
+    avar: f64,
+    edf: f64,
+    confidence: f64,
+    inversion: Chi2Inversion,
+) -> Option<(f64, f64)> {
+    if !(edf > 0.0 && confidence > 0.0 && confidence < 1.0) {
         return None;
     }
     let p = (1.0 - confidence) / 2.0;
-    let lo_q = chi2_quantile(p, edf)?;
-    let hi_q = chi2_quantile(1.0 - p, edf)?;
+    let (lo_q, hi_q) = chi2_tail_quantiles(p, edf, inversion)?;
     Some((edf * avar / hi_q, edf * avar / lo_q))
 }
 
-/// The q-quantile of χ²(ν): Wilson–Hilferty start, polished by Newton steps on statrs' CDF.
-///
-/// statrs' own `inverse_cdf` runs a fixed, short bisection that is inaccurate for the very large
-/// EDF (10⁵ and more) of long records, hence the better starting point.
-fn chi2_quantile(q: f64, nu: f64) -> Option<f64> {
-    let dist = ChiSquared::new(nu).ok()?;
+/// The q-quantile of `dist` = χ²(ν), ν finite: Wilson–Hilferty start, polished by Newton steps.
+fn newton_quantile(dist: &ChiSquared, q: f64, nu: f64) -> Option<f64> {
     let z = standard_normal_quantile(q);
     let k = 2.0 / (9.0 * nu);
     let mut x = (nu * (1.0 - k + z * k.sqrt()).powi(3))
@@ -324,7 +378,7 @@ mod tests {
     fn quantiles_match_tables() {
         // Reference quantiles from scipy.stats.chi2.ppf (SciPy 1.x, cephes).
         // ν = 1: χ² = z², so P(χ² ≤ 1) = P(|z| ≤ 1) = erf(1/√2) exactly.
-        let q = chi2_quantile(ONE_SIGMA, 1.0).unwrap();
+        let q = chi2_quantile(ONE_SIGMA, 1.0, Chi2Inversion::Newton).unwrap();
         assert!((q - 1.0).abs() < 1e-9, "{q}");
         let p = (1.0 - ONE_SIGMA) / 2.0;
         for (q, nu, want) in [
@@ -333,7 +387,7 @@ mod tests {
             (0.5, 100.0, 99.334_129_235_988_46),
             (p, 5e5, 499_000.000_666_726),
         ] {
-            let got = chi2_quantile(q, nu).unwrap();
+            let got = chi2_quantile(q, nu, Chi2Inversion::Newton).unwrap();
             assert!(
                 (got / want - 1.0).abs() < 1e-8,
                 "q={q} ν={nu}: {got} vs {want}"

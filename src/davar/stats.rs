@@ -9,7 +9,7 @@
 //! the factors are computed once per pair; the number of pairs is bounded by K·λ2.
 
 use crate::allan::AllanPoint;
-use statrs::distribution::{ChiSquared, ContinuousCDF};
+use crate::allan::edf::{chi2_tail_quantiles, Chi2Inversion};
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, PoisonError};
 
@@ -68,19 +68,19 @@ pub fn edf_closed_form(m: usize, terms: usize) -> f64 {
 
 /// The χ² factors of a two-sided interval: `(lo, hi)` with `avar·lo ≤ σ² ≤ avar·hi`.
 ///
+/// The quantiles are statrs' ([`Chi2Inversion::Statrs`]), which the engine's intervals and change
+/// events have always been computed with.
+///
 /// # Formula
 /// ```text
 /// lo = edf / χ²(1 − p_low; edf),   hi = edf / χ²(p_low; edf)
 /// ```
 /// where χ²(p; ν) is the p-quantile of the χ² distribution with ν degrees of freedom.
 pub fn chi2_factors(edf: f64, p_low: f64) -> (f64, f64) {
-    match ChiSquared::new(edf) {
-        Ok(chi) => (
-            edf / chi.inverse_cdf(1.0 - p_low),
-            edf / chi.inverse_cdf(p_low),
-        ),
+    match chi2_tail_quantiles(p_low, edf, Chi2Inversion::Statrs) {
+        Some((q_low, q_high)) => (edf / q_high, edf / q_low),
         // edf is clamped ≥ 1 by edf_overlapping; an invalid edf gives an unbounded interval.
-        Err(_) => (0.0, f64::INFINITY),
+        None => (0.0, f64::INFINITY),
     }
 }
 
@@ -195,6 +195,20 @@ impl SharedIntervals {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn chi2_factors_keep_the_bits_of_statrs_inversion() {
+        // The factors as this file computed them before `allan::edf` held the one implementation:
+        // the engine's intervals and change events depend on these bits.
+        use statrs::distribution::{ChiSquared, ContinuousCDF};
+        for edf in [1.0, 7.5, 332.4, 5e4] {
+            let chi = ChiSquared::new(edf).unwrap();
+            let (lo, hi) = chi2_factors(edf, ONE_SIGMA_LOW);
+            assert_eq!(lo.to_bits(), (edf / chi.inverse_cdf(1.0 - ONE_SIGMA_LOW)).to_bits());
+            assert_eq!(hi.to_bits(), (edf / chi.inverse_cdf(ONE_SIGMA_LOW)).to_bits());
+        }
+        assert_eq!(chi2_factors(0.0, ONE_SIGMA_LOW), (0.0, f64::INFINITY));
+    }
 
     #[test]
     fn interval_brackets_the_estimate_and_narrows_with_terms() {

@@ -11,7 +11,7 @@
 //! Riley W. J., "Handbook of Frequency Stability Analysis", NIST SP 1065, 2008, §5.2.4 and
 //! Table 12 (EDF approximations for overlapping ADEV).
 
-use statrs::distribution::{ChiSquared, ContinuousCDF};
+use crate::allan::edf::{chi2_interval_with, Chi2Inversion};
 
 /// The power-law noise classes of NIST SP 1065, by the log-log slope of σ²(τ).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -122,21 +122,58 @@ pub fn edf_for_mix(parts: &[(f64, NoiseClass)], n: usize, m: usize) -> f64 {
     }
 }
 
-/// The 68.3 % χ² interval of a variance estimate with `edf` degrees of freedom.
+/// Two-sided level of a fit point's interval ([`crate::model::fit::FitPoint::ci`]): 68.27 %.
+///
+/// Written to four digits, not [`crate::allan::edf::ONE_SIGMA`]: the fit's CSV and figures have
+/// always been computed with it, and the two differ in the last bits of every bound.
+pub const FIT_CONFIDENCE: f64 = 0.6827;
+
+/// The 68.3 % χ² interval of a variance estimate with `edf` degrees of freedom, as the fit reports
+/// it ([`crate::model::fit::FitPoint::ci`]).
+///
+/// [`chi2_interval_with`] at [`FIT_CONFIDENCE`] with statrs' quantiles
+/// ([`Chi2Inversion::Statrs`]), `edf` read as at least 10⁻³; `(0, ∞)` when no interval exists.
+///
+/// # Formula
+/// ```text
+/// (low, high) = (edf·avar / χ²(1 − p ; edf), edf·avar / χ²(p ; edf)),   p = (1 − FIT_CONFIDENCE)/2
+/// ```
+/// where χ²(q ; ν) is the q-quantile of the χ² distribution with ν degrees of freedom.
+///
+/// ```
+/// use fdavar::model::measure::chi2_interval;
+/// let (lo, hi) = chi2_interval(1.0, 10.0);
+/// // At the 68.2689 % level χ²(0.8413; 10) = 14.32551, χ²(0.1587; 10) = 5.68062
+/// // (scipy.stats.chi2.ppf); 68.27 % moves them by less than 10⁻⁴.
+/// assert!((lo - 10.0 / 14.32551).abs() < 1e-4 && (hi - 10.0 / 5.68062).abs() < 1e-4);
+/// ```
 pub fn chi2_interval(avar: f64, edf: f64) -> (f64, f64) {
-    match ChiSquared::new(edf.max(1e-3)) {
-        Ok(chi) => {
-            let lo = chi.inverse_cdf(0.5 + 0.6827 / 2.0);
-            let hi = chi.inverse_cdf(0.5 - 0.6827 / 2.0);
-            (avar * edf / lo, avar * edf / hi)
-        }
-        Err(_) => (0.0, f64::INFINITY),
-    }
+    chi2_interval_with(avar, edf.max(1e-3), FIT_CONFIDENCE, Chi2Inversion::Statrs)
+        .unwrap_or((0.0, f64::INFINITY))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn chi2_interval_keeps_the_bits_of_its_own_statrs_formula() {
+        // The interval as this file computed it before `allan::edf` held the one implementation:
+        // the fit's CSV and figure bounds depend on these bits.
+        use statrs::distribution::{ChiSquared, ContinuousCDF};
+        for edf in [1.0, 3.5, 20.0, 800.0, 5e4] {
+            let chi = ChiSquared::new(edf).unwrap();
+            let lo = chi.inverse_cdf(0.5 + 0.6827 / 2.0);
+            let hi = chi.inverse_cdf(0.5 - 0.6827 / 2.0);
+            let (got_lo, got_hi) = chi2_interval(2.5, edf);
+            assert_eq!(got_lo.to_bits(), (2.5 * edf / lo).to_bits(), "edf {edf}");
+            assert_eq!(got_hi.to_bits(), (2.5 * edf / hi).to_bits(), "edf {edf}");
+        }
+        // Why the level survives the move: (1 − c)/2 and 1 − (1 − c)/2 are exactly 0.5 ∓ c/2.
+        let p = (1.0 - FIT_CONFIDENCE) / 2.0;
+        assert_eq!(p, 0.5 - FIT_CONFIDENCE / 2.0);
+        assert_eq!(1.0 - p, 0.5 + FIT_CONFIDENCE / 2.0);
+    }
 
     #[test]
     fn edf_formulas_behave() {

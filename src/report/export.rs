@@ -46,6 +46,7 @@ use std::str::FromStr;
 use serde::Serialize;
 use serde_json::Value;
 
+use crate::model::effects::id;
 use crate::model::FittedModel;
 use crate::report::units::{KalibrImu, Sensor};
 
@@ -158,7 +159,7 @@ impl AxisNoise {
                 .map(|p| p.value)
                 .ok_or_else(|| ExportError::MissingTerm { axis: fit.axis.name().to_string(), effect })
         };
-        Ok(AxisNoise { axis: fit.axis.name().to_string(), n: value("white")?, k: value("random_walk")? })
+        Ok(AxisNoise { axis: fit.axis.name().to_string(), n: value(id::WHITE)?, k: value(id::RANDOM_WALK)? })
     }
 
     /// The axes of the JSON that `fdavar fit --json` or `diagnose --json` printed.
@@ -187,7 +188,7 @@ impl AxisNoise {
                         .or_else(|| p["value"].as_f64())
                         .ok_or_else(|| ExportError::MissingTerm { axis: axis.clone(), effect })
                 };
-                Ok(AxisNoise { n: param("white", "n")?, k: param("random_walk", "k")?, axis: axis.clone() })
+                Ok(AxisNoise { n: param(id::WHITE, "n")?, k: param(id::RANDOM_WALK, "k")?, axis: axis.clone() })
             })
             .collect()
     }

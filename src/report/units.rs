@@ -19,6 +19,7 @@
 //!   systems", IROS 2013 (Kalibr); Kalibr wiki "IMU Noise Model".
 use std::f64::consts::PI;
 
+use crate::model::effects::{self, id};
 use serde::{Deserialize, Serialize};
 
 /// Degrees per radian, 180/π.
@@ -73,13 +74,18 @@ impl Coefficient {
 
     /// The coefficient of an effect id or alias of docs/design.md §4 (`white` or `N`, …).
     pub fn from_effect(name: &str) -> Option<Coefficient> {
-        match name {
-            "quantization" | "Q" => Some(Coefficient::Quantization),
-            "white" | "N" => Some(Coefficient::White),
-            "bias_instability" | "B" => Some(Coefficient::BiasInstability),
-            "random_walk" | "K" => Some(Coefficient::RandomWalk),
-            "ramp" | "R" => Some(Coefficient::Ramp),
-            _ => None,
+        let kind = effects::find(name)?;
+        Coefficient::ALL.into_iter().find(|c| c.effect() == kind.id())
+    }
+
+    /// The id of the effect whose first parameter this coefficient is (`white` for N, …).
+    pub fn effect(self) -> &'static str {
+        match self {
+            Coefficient::Quantization => id::QUANTIZATION,
+            Coefficient::White => id::WHITE,
+            Coefficient::BiasInstability => id::BIAS_INSTABILITY,
+            Coefficient::RandomWalk => id::RANDOM_WALK,
+            Coefficient::Ramp => id::RAMP,
         }
     }
 

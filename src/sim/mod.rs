@@ -26,7 +26,7 @@ mod spec;
 
 pub use spec::{EffectMap, LostMessages, ParamValue, SimSpec, TemperatureProfile, Topics, MAX_SAMPLES};
 
-use crate::model::effects::{Effect, ParamError, SimContext, SimStage};
+use crate::model::effects::{id, Effect, ParamError, SimContext, SimStage};
 use crate::signal::{Axis, ImuSample, TemperatureSample};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -224,7 +224,7 @@ fn apply(effects: &[Planned], ctx: &SimContext<'_>, seed: u64, stream_base: u64,
 fn white_sigma(effects: &[Planned], dt: f64) -> f64 {
     effects
         .iter()
-        .find(|p| p.effect.kind().id() == "white")
+        .find(|p| p.effect.kind().id() == id::WHITE)
         .and_then(|p| p.effect.params().first().map(|n| n.value / dt.sqrt()))
         .unwrap_or(0.0)
 }

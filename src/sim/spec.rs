@@ -1,6 +1,6 @@
 //! The simulation spec: what a YAML file asks for, as plain data, and its validation.
 
-use crate::model::effects::{find, Domain, Effect, SimStage};
+use crate::model::effects::{find, id as effect_id, Domain, Effect, SimStage};
 use crate::signal::Axis;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -488,10 +488,10 @@ impl SimSpec {
                 if evidence == Evidence::Accel && !axis.is_gyro() {
                     return Err(field_error(field, "applies to gyro axes only"));
                 }
-                if id == "noise_burst" && !planned.iter().any(|q| q.effect.kind().id() == "white") {
+                if id == effect_id::NOISE_BURST && !planned.iter().any(|q| q.effect.kind().id() == effect_id::WHITE) {
                     return Err(field_error(
                         field,
-                        "scales the white noise: add `white` to this axis",
+                        format!("scales the white noise: add `{}` to this axis", effect_id::WHITE),
                     ));
                 }
                 // A time-domain event must begin inside the recording (its first time parameter:

@@ -4,7 +4,7 @@
 use crate::{Outcome, UsageError};
 use anyhow::Context;
 use fdavar::bag::BagReader;
-use fdavar::model::ModelSpec;
+use fdavar::model::{effects, ModelSpec};
 use fdavar::report::export::{AxisNoise, ExportFormat, ImuNoise};
 use fdavar::signal::Axis;
 use std::io::{Read, Write};
@@ -87,8 +87,9 @@ fn is_json(path: &Path) -> bool {
 /// Fits every axis of the bag with the model, as `fdavar fit` does.
 fn from_bag(args: &Args) -> anyhow::Result<(ImuNoise, Outcome)> {
     let spec = ModelSpec::parse(&args.model).context("invalid --model")?;
-    for (id, alias) in [("white", "N"), ("random_walk", "K")] {
+    for id in [effects::id::WHITE, effects::id::RANDOM_WALK] {
         if !spec.ids().iter().any(|e| e == id) {
+            let alias = effects::find(id).and_then(|k| k.alias()).unwrap_or(id);
             return Err(UsageError(format!("--model {}: export needs {alias} ({id})", args.model)).into());
         }
     }

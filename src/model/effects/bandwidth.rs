@@ -22,8 +22,11 @@ static SCHEMA: &[ParamSpec] = &[
     },
 ];
 
+/// The effect id (**contract** name) of this file's effect: `bandwidth`.
+pub const ID: &str = "bandwidth";
+
 static INFO: KindInfo = KindInfo {
-    id: "bandwidth",
+    id: ID,
     alias: None,
     schema: SCHEMA,
     domain: Domain::Spectral,

@@ -15,9 +15,12 @@ static SCHEMA: &[ParamSpec] = &[ParamSpec {
     doc: "bias instability B (flicker floor: ADEV = 0.664·B)",
 }];
 
+/// The effect id (**contract** name) of this file's effect: `bias_instability`.
+pub const ID: &str = "bias_instability";
+
 /// The registry entry of [`BiasInstability`].
 pub(super) static KIND: KindInfo = KindInfo {
-    id: "bias_instability",
+    id: ID,
     alias: Some("B"),
     schema: SCHEMA,
     domain: Domain::Spectral,

@@ -24,8 +24,11 @@ static SCHEMA: &[ParamSpec] = &[
     },
 ];
 
+/// The effect id (**contract** name) of this file's effect: `bias_step`.
+pub const ID: &str = "bias_step";
+
 static INFO: KindInfo = KindInfo {
-    id: "bias_step",
+    id: ID,
     alias: None,
     schema: SCHEMA,
     domain: Domain::TimeDomain,

@@ -25,8 +25,11 @@ static SCHEMA: &[ParamSpec] = &[
     },
 ];
 
+/// The effect id (**contract** name) of this file's effect: `g_sensitivity`.
+pub const ID: &str = "g_sensitivity";
+
 static INFO: KindInfo = KindInfo {
-    id: "g_sensitivity",
+    id: ID,
     alias: None,
     schema: SCHEMA,
     domain: Domain::TimeDomain,

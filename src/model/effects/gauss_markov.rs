@@ -21,9 +21,12 @@ static SCHEMA: &[ParamSpec] = &[
     },
 ];
 
+/// The effect id (**contract** name) of this file's effect: `gauss_markov`.
+pub const ID: &str = "gauss_markov";
+
 /// The registry entry of [`GaussMarkov`].
 pub(super) static KIND: KindInfo = KindInfo {
-    id: "gauss_markov",
+    id: ID,
     alias: None,
     schema: SCHEMA,
     domain: Domain::Spectral,

@@ -39,6 +39,27 @@ pub use temperature::Temperature;
 pub use vibration::Vibration;
 pub use white::White;
 
+/// The effect ids (**contract** names), one constant per effect file, for the code outside this
+/// folder that must name one effect (the terms an export reads, the white noise a burst scales).
+///
+/// Why constants and not strings: a renamed id then fails to compile where it is used instead of
+/// silently matching nothing. Code that can ask a kind ([`EffectKind::id`]) should.
+pub mod id {
+    pub use super::bandwidth::ID as BANDWIDTH;
+    pub use super::bias_instability::ID as BIAS_INSTABILITY;
+    pub use super::bias_step::ID as BIAS_STEP;
+    pub use super::g_sensitivity::ID as G_SENSITIVITY;
+    pub use super::gauss_markov::ID as GAUSS_MARKOV;
+    pub use super::noise_burst::ID as NOISE_BURST;
+    pub use super::quantization::ID as QUANTIZATION;
+    pub use super::ramp::ID as RAMP;
+    pub use super::random_walk::ID as RANDOM_WALK;
+    pub use super::sinusoid::ID as SINUSOID;
+    pub use super::temperature::ID as TEMPERATURE;
+    pub use super::vibration::ID as VIBRATION;
+    pub use super::white::ID as WHITE;
+}
+
 /// The registry: every effect kind, in the order of `--help`, reports and suggestions.
 ///
 /// Base noise terms first (IEEE 952: Q, N, B, K, R), then the effects beyond them. A new kind goes

@@ -32,8 +32,11 @@ static SCHEMA: &[ParamSpec] = &[
     },
 ];
 
+/// The effect id (**contract** name) of this file's effect: `noise_burst`.
+pub const ID: &str = "noise_burst";
+
 static INFO: KindInfo = KindInfo {
-    id: "noise_burst",
+    id: ID,
     alias: None,
     schema: SCHEMA,
     domain: Domain::TimeDomain,

@@ -13,9 +13,12 @@ static SCHEMA: &[ParamSpec] = &[ParamSpec {
     doc: "angle quantization noise Q (rms of the angle rounding error)",
 }];
 
+/// The effect id (**contract** name) of this file's effect: `quantization`.
+pub const ID: &str = "quantization";
+
 /// The registry entry of [`Quantization`].
 pub(super) static KIND: KindInfo = KindInfo {
-    id: "quantization",
+    id: ID,
     alias: Some("Q"),
     schema: SCHEMA,
     domain: Domain::Spectral,

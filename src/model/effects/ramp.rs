@@ -15,8 +15,11 @@ static SCHEMA: &[ParamSpec] = &[ParamSpec {
     doc: "rate ramp R (bias drift rate)",
 }];
 
+/// The effect id (**contract** name) of this file's effect: `ramp`.
+pub const ID: &str = "ramp";
+
 static INFO: KindInfo = KindInfo {
-    id: "ramp",
+    id: ID,
     alias: Some("R"),
     schema: SCHEMA,
     domain: Domain::TimeDomain,

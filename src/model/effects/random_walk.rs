@@ -13,9 +13,12 @@ static SCHEMA: &[ParamSpec] = &[ParamSpec {
     doc: "rate random walk K (bias random walk density)",
 }];
 
+/// The effect id (**contract** name) of this file's effect: `random_walk`.
+pub const ID: &str = "random_walk";
+
 /// The registry entry of [`RandomWalk`].
 pub(super) static KIND: KindInfo = KindInfo {
-    id: "random_walk",
+    id: ID,
     alias: Some("K"),
     schema: SCHEMA,
     domain: Domain::Spectral,

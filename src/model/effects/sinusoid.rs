@@ -22,9 +22,12 @@ pub(super) static SCHEMA: &[ParamSpec] = &[
     },
 ];
 
+/// The effect id (**contract** name) of this file's effect: `sinusoid`.
+pub const ID: &str = "sinusoid";
+
 /// The registry entry of [`Sinusoid`].
 pub(super) static KIND: KindInfo = KindInfo {
-    id: "sinusoid",
+    id: ID,
     alias: None,
     schema: SCHEMA,
     domain: Domain::Spectral,

@@ -18,8 +18,11 @@ static SCHEMA: &[ParamSpec] = &[ParamSpec {
     doc: "bias change per kelvin of sensor temperature",
 }];
 
+/// The effect id (**contract** name) of this file's effect: `temperature`.
+pub const ID: &str = "temperature";
+
 static INFO: KindInfo = KindInfo {
-    id: "temperature",
+    id: ID,
     alias: None,
     schema: SCHEMA,
     domain: Domain::TimeDomain,

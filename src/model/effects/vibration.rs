@@ -9,8 +9,11 @@ use rand::RngCore;
 /// The schema of a line: `amplitude` and `frequency_hz`, as `sinusoid` has them.
 static SCHEMA: &[ParamSpec] = sinusoid::SCHEMA;
 
+/// The effect id (**contract** name) of this file's effect: `vibration`.
+pub const ID: &str = "vibration";
+
 static INFO: KindInfo = KindInfo {
-    id: "vibration",
+    id: ID,
     alias: None,
     schema: SCHEMA,
     domain: Domain::Spectral,

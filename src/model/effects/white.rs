@@ -13,9 +13,12 @@ static SCHEMA: &[ParamSpec] = &[ParamSpec {
     doc: "white rate noise density N (angle random walk)",
 }];
 
+/// The effect id (**contract** name) of this file's effect: `white`.
+pub const ID: &str = "white";
+
 /// The registry entry of [`White`].
 pub(super) static KIND: KindInfo = KindInfo {
-    id: "white",
+    id: ID,
     alias: Some("N"),
     schema: SCHEMA,
     domain: Domain::Spectral,

@@ -146,7 +146,7 @@ impl IntervalCache {
 /// The key picks the entries, the number of terms checks them: a row of the engine keys by its
 /// window, so that the K lanes it reads lie side by side (in a window without invalid samples
 /// the terms at m are W − 2m + 1, the same at every such row); one lane keyed by its terms serves
-/// a single factor. Each entry holds the terms it was filled for ([`EMPTY`] when not yet), then
+/// a single factor. Each entry holds the terms it was filled for (none when not yet), then
 /// its factors: plain values, not an `Option`, so that a hit is one compare and the factors stay
 /// in registers (the enum's copy went through the stack, a store-forwarding stall per row and τ).
 #[derive(Debug, Clone)]

@@ -749,11 +749,18 @@ pub fn block_regression(y: &[f64], x: Option<&[f64]>, noise: &NoiseSpectrum) -> 
 /// a taper costs a sine per point (7 % of a diagnosis when made per transform); every axis of a
 /// record has the same length. Both depend on the length only, so shared ones give the same
 /// numbers.
-pub struct Plans(Mutex<(RealFftPlanner<f64>, HashMap<usize, Arc<[f64]>>)>);
+pub struct Plans(Mutex<Made>);
+
+/// What [`Plans`] made so far: the planner (which keeps its plans) and the tapers by length.
+#[derive(Default)]
+struct Made {
+    planner: RealFftPlanner<f64>,
+    tapers: HashMap<usize, Arc<[f64]>>,
+}
 
 impl Default for Plans {
     fn default() -> Self {
-        Plans(Mutex::new((RealFftPlanner::new(), HashMap::new())))
+        Plans(Mutex::new(Made::default()))
     }
 }
 
@@ -775,8 +782,8 @@ impl Plans {
     /// The forward real-to-complex transform of `len` points and its taper (made once per length).
     pub fn forward(&self, len: usize) -> Plan {
         // A planner is left consistent by a panic elsewhere: its caches only ever gain entries.
-        let mut guard = self.0.lock().unwrap_or_else(PoisonError::into_inner);
-        let (planner, tapers) = &mut *guard;
+        let mut made = self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        let Made { planner, tapers } = &mut *made;
         let taper = tapers.entry(len).or_insert_with(|| {
             (0..len)
                 .map(|j| (std::f64::consts::PI * (j as f64 + 0.5) / len as f64).sin().powi(2))

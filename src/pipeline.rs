@@ -362,8 +362,6 @@ pub struct Pipeline {
     running: Option<Running>,
     /// The χ² intervals the axes' engines share.
     intervals: SharedIntervals,
-    /// Rows carry the point of the grid's shortest τ only ([`Pipeline::shortest_tau_only`]).
-    shortest_only: bool,
 }
 
 impl std::fmt::Debug for Pipeline {
@@ -404,7 +402,6 @@ impl Pipeline {
             placed: Vec::new(),
             running: None,
             intervals: SharedIntervals::default(),
-            shortest_only: false,
         };
         // Validate the engine configuration now, with a placeholder period when none is given.
         pipeline.engine_for(Axis::GyroX, pipeline.config.tau0.unwrap_or(1.0))?;
@@ -425,32 +422,13 @@ impl Pipeline {
             SigmaRefMode::Value(v) => SigmaRef::Value(v),
         };
         let max = self.config.policy.max_window();
-        let mut factors = self.config.taus.factors(max / 3);
-        if self.shortest_only {
-            factors.truncate(1);
-        }
         let engine = EngineConfig {
-            factors,
+            factors: self.config.taus.factors(max / 3),
             tau0,
             sigma_ref,
             f_target: self.config.f_target,
         };
         Ok(DavarEngine::with_intervals(engine, self.config.policy.build(), self.intervals.clone())?)
-    }
-
-    /// This pipeline with rows that carry only the point at the grid's shortest τ: the one the
-    /// change detector reads.
-    ///
-    /// Why: a caller that keeps only the rows' summary and the change events (`fdavar analyze`)
-    /// would have every row's other K − 1 points computed and dropped, most of the rows' cost.
-    /// Everything else is what the full grid gives, bit for bit: indices, windows, variance, F,
-    /// σ²_ref, F̃ and valid samples come from the samples alone; each factor's sums are its own;
-    /// and a row's first point is at the grid's first factor either way (a window that holds a
-    /// complete term at a larger factor holds one at the first), so the events are the same.
-    /// Only [`Pipeline::excluded_terms`] counts the shortest τ alone.
-    pub fn shortest_tau_only(mut self) -> Self {
-        self.shortest_only = true;
-        self
     }
 
     /// The nominal period in use, once known.
@@ -691,43 +669,6 @@ mod tests {
             assert!(f.is_finite() && s2.is_finite() && s2 < 1.0, "{f} {s2}");
         }
         assert_eq!(p.irregularities().non_finite, 10);
-    }
-
-    /// What `fdavar analyze` relies on: rows of the shortest τ alone are the full rows cut to
-    /// their first point, and the events are the same (with a change, a gap and a NaN).
-    #[test]
-    fn shortest_tau_only_keeps_rows_and_events() {
-        let cfg = DavarConfig {
-            policy: PolicyConfig::Sign { min: 31, max: 91, step: 4 },
-            ..config()
-        };
-        let run = |pipeline: Pipeline| {
-            let mut p = pipeline;
-            let mut out = Output::default();
-            for k in 0..3000i64 {
-                if (1500..1504).contains(&k) {
-                    continue;
-                }
-                let mut s = sample(k, k * 10_000_000, if (900..1300).contains(&k) { 4.0 * ((k % 5) as f64 - 2.0) } else { 0.0 });
-                if k == 2000 {
-                    s.gyro[0] = f64::NAN;
-                }
-                p.push(&s, &mut out);
-            }
-            p.finish(&mut out);
-            out
-        };
-        let full = run(Pipeline::new(cfg.clone(), &[Axis::GyroX], None).unwrap());
-        let short = run(Pipeline::new(cfg, &[Axis::GyroX], None).unwrap().shortest_tau_only());
-        assert!(!full.events.is_empty() && full.rows.iter().any(|r| r.row.points.len() > 1));
-        assert_eq!(full.events, short.events);
-        assert_eq!(full.rows.len(), short.rows.len());
-        for (f, s) in full.rows.iter().zip(&short.rows) {
-            let mut cut = f.clone();
-            cut.row.points.truncate(1);
-            cut.row.excluded_terms = s.row.excluded_terms;
-            assert_eq!(&cut, s);
-        }
     }
 
     #[test]

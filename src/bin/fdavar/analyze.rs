@@ -126,11 +126,9 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let groups: Vec<Vec<Axis>> = (0..jobs.min(axes.len()))
         .map(|w| axes.iter().copied().skip(w).step_by(jobs).collect())
         .collect();
-    // Only the rows' summary and events are kept: the rows need no point beyond the one the
-    // change detector reads.
     let pipelines = groups
         .iter()
-        .map(|g| Pipeline::new(davar.clone(), g, None).map(Pipeline::shortest_tau_only))
+        .map(|g| Pipeline::new(davar.clone(), g, None))
         .collect::<Result<Vec<_>, _>>()
         .context("cannot start the DAVAR pipeline")?;
     let (analysis, diagnoses, rows) = std::thread::scope(|scope| -> anyhow::Result<_> {

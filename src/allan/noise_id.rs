@@ -93,7 +93,13 @@ fn lag1_acf_alpha<I: Iterator<Item = f64>>(decimated: impl Fn() -> I, d_max: u32
     let trend = linear_trend(frequency)?;
     let mut d = 0u32;
     loop {
-        let r1 = lag1_acf(|| differenced(trend.remove(frequency()), d))?;
+        // The usual depths without a boxed iterator: a virtual call per value cost more than the
+        // arithmetic (the same values either way).
+        let r1 = match d {
+            0 => lag1_acf(|| trend.remove(frequency())),
+            1 => lag1_acf(|| first_differences(trend.remove(frequency()))),
+            _ => lag1_acf(|| differenced(trend.remove(frequency()), d)),
+        }?;
         let delta = r1 / (1.0 + r1);
         if delta < 0.25 || d >= d_max {
             return Some(-(2.0 * delta).round() as i32 - 2 * d as i32);

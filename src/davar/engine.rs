@@ -1,19 +1,29 @@
 //! The streaming F-DAVAR engine of one axis: push rate samples, get DAVAR rows.
 //!
 //! # How a row costs O(K) whatever W is
-//! For every averaging factor m of the grid the engine keeps, over a ring of L = λ2 + 8 indices,
-//! the prefix sum of the squared second differences that are complete so far, and how many of them
-//! were valid. The window's Allan variance at m is then one subtraction of two prefix values. Each
+//! For every averaging factor m of the grid the engine keeps the prefix sum of the squared second
+//! differences that are complete so far, and how many of them were valid, over the last L = λ2 + 8
+//! indices. The window's Allan variance at m is then one subtraction of two prefix values. Each
 //! new sample completes exactly one new second difference per m, so a push is O(K) and memory is
 //! O(K·L), whatever the window.
 //!
 //! # Why the sums do not drift
 //! Prefix sums grow without bound and collect rounding. Every L samples the engine *rebases*: it
-//! recomputes every prefix from the raw samples still in the ring, from zero, exactly as a fresh
+//! recomputes every prefix from the raw samples it still holds, from zero, exactly as a fresh
 //! engine would. Between rebases at most L additions accumulate, so a row after 24 h equals a
 //! from-scratch computation on its cut (the property tests check 10⁷ samples). Samples are also
-//! summed relative to a local reference (the mean of the ring at the last rebase): a gyro bias of
-//! 10⁴ with noise of 1 loses no digits in the second differences, which are blind to offsets.
+//! summed relative to a local reference (the mean of the held samples at the last rebase): a gyro
+//! bias of 10⁴ with noise of 1 loses no digits in the second differences, which are blind to
+//! offsets.
+//!
+//! # Layout
+//! The arrays are linear, 2L positions long: position p holds what belongs to index origin + p.
+//! A rebase moves the L − 1 samples it keeps to the front (it rewrites every prefix anyway), and
+//! the next L samples fill the rest. Why not a ring of L: every access then wraps its index
+//! (a branch per factor and sample). Each factor's prefix is stored at the position of the
+//! sample count that completed its latest term, not at that term's first index: a push then reads
+//! and writes the K prefixes of two adjacent positions, and a row reads the K upper ends of its
+//! window's sums from one position. Each sum adds the same terms in the same order either way.
 //!
 //! # Timing
 //! The row at analysis index t uses the W(t) samples `[t − ⌊W/2⌋, t − ⌊W/2⌋ + W)` and is emitted
@@ -22,22 +32,30 @@
 //! from a truncated window.
 
 use super::reference::{FTarget, FTargetTracker, SigmaRef, SigmaRefTracker};
-use super::stats::{IntervalFactors, IntervalMemo, SharedIntervals};
+use super::stats::{IntervalMemo, SharedIntervals};
 use super::{DavarError, DavarRow, WindowPolicy};
 use crate::allan::AllanPoint;
 
 /// Most point vectors kept for reuse (a push emits one row, rarely several).
 const SPARE_ROWS: usize = 4;
 
-/// Extra ring slots beyond λ2 (the proof in [`DavarEngine::new`] needs 2).
+/// Extra held indices beyond λ2 (the proof in [`DavarEngine::new`] needs 2).
 const RING_MARGIN: usize = 8;
 
-/// One factor's prefix at one slot: the sum of the valid squared second differences so far and
+/// One factor's prefix at one position: the sum of the valid squared second differences so far and
 /// their count (side by side: a push and a row read both).
 #[derive(Debug, Clone, Copy, Default)]
 struct Prefix {
     sum: f64,
     count: u64,
+}
+
+/// A factor's constants in a row's point: τ = m·τ0 and the divisor's 2m² (the same products as
+/// computed per row, made once).
+#[derive(Debug, Clone, Copy)]
+struct Scale {
+    tau: f64,
+    two_m2: f64,
 }
 
 /// What one engine computes besides its window policy.
@@ -72,33 +90,37 @@ pub struct EngineConfig {
 pub struct DavarEngine {
     policy: Box<dyn WindowPolicy>,
     factors: Vec<usize>,
+    /// Per factor, its [`Scale`].
+    scales: Vec<Scale>,
     tau0: f64,
     sigma_ref: SigmaRefTracker,
     f_target: FTargetTracker,
     intervals: SharedIntervals,
-    /// Per factor, the intervals it met lately (a row needs one per factor).
-    interval_of: Vec<IntervalMemo>,
+    /// The intervals met lately, one lane per factor, keyed by window (a row needs one per factor).
+    interval_of: IntervalMemo,
     /// Point vectors of rows handed back by [`DavarEngine::recycle`], reused by the next rows.
     spare: Vec<Vec<AllanPoint>>,
-    /// Ring length L.
+    /// Indices held, L; the engine rebases every L samples.
     len: usize,
     /// Samples pushed so far (the index of the next sample).
     n: u64,
     /// Index at which the prefix sums are zero (start, or the oldest index at the last rebase).
     base: u64,
+    /// Index held at position 0 of the arrays (= `base`).
+    origin: u64,
     /// Value of `n` at the last rebase.
     rebased_at: u64,
     /// Local reference subtracted from every sample before summing.
     reference: Option<f64>,
-    /// Raw samples y[k] at slot k mod L (NaN = invalid), k ∈ [n − L, n).
+    /// Raw samples y[k] at position k − origin (NaN = invalid), k ∈ [origin, n).
     raw: Vec<f64>,
-    /// Prefix sums at slot k mod L, k ∈ [max(base, n − L + 1), n]: Σ z, Σ z², valid count.
+    /// Prefix sums over [base, k) at position k − origin, k ∈ [base, n]: Σ z, Σ z², valid count.
     sum1: Vec<f64>,
     sum2: Vec<f64>,
     valid: Vec<u64>,
-    /// At `(j mod L)·K + i` for factor number i: prefix of the valid squared second differences
-    /// (slot-major: a row reads every factor's prefix at its window's first slot, a rebase reads
-    /// and writes every factor's at one slot after the other).
+    /// At `(k − origin)·K + i` for factor number i, k ∈ [base, n]: prefix of the valid squared
+    /// second differences of the terms j ≥ base complete among the samples [base, k), i.e. with
+    /// j + 2m ≤ k (position-major: see the module doc).
     terms: Vec<Prefix>,
     /// The pending analysis index and its window.
     t: u64,
@@ -178,24 +200,33 @@ impl DavarEngine {
             .collect();
         let len = bounds.max + RING_MARGIN;
         let w = bounds.clamp(policy.initial() as i64);
+        let scales = factors
+            .iter()
+            .map(|&m| {
+                let mf = m as f64;
+                Scale { tau: mf * config.tau0, two_m2: 2.0 * mf * mf }
+            })
+            .collect();
         Ok(DavarEngine {
             factors: factors.clone(),
+            scales,
             tau0: config.tau0,
             sigma_ref: SigmaRefTracker::new(config.sigma_ref),
             f_target: FTargetTracker::new(config.f_target),
             intervals,
-            interval_of: vec![IntervalMemo::default(); factors.len()],
+            interval_of: IntervalMemo::new(factors.len()),
             spare: Vec::new(),
             len,
             n: 0,
             base: 0,
+            origin: 0,
             rebased_at: 0,
             reference: None,
-            raw: vec![f64::NAN; len],
-            sum1: vec![0.0; len],
-            sum2: vec![0.0; len],
-            valid: vec![0; len],
-            terms: vec![Prefix::default(); len * factors.len()],
+            raw: vec![f64::NAN; 2 * len],
+            sum1: vec![0.0; 2 * len],
+            sum2: vec![0.0; 2 * len],
+            valid: vec![0; 2 * len],
+            terms: vec![Prefix::default(); 2 * len * factors.len()],
             t: (w / 2) as u64,
             w,
             excluded_total: 0,
@@ -207,10 +238,8 @@ impl DavarEngine {
     /// that became complete to `out` (zero, one, or several when the window shrank).
     pub fn push(&mut self, value: Option<f64>, out: &mut Vec<DavarRow>) {
         let value = value.filter(|v| v.is_finite());
-        let k = self.n;
-        let slot = self.slot(k);
-        let next = self.wrap(slot + 1);
-        self.raw[slot] = value.unwrap_or(f64::NAN);
+        let p = self.pos(self.n);
+        self.raw[p] = value.unwrap_or(f64::NAN);
         let (z, ok) = match value {
             Some(y) => {
                 self.sigma_ref.observe(y);
@@ -218,19 +247,11 @@ impl DavarEngine {
             }
             None => (0.0, 0),
         };
-        self.sum1[next] = self.sum1[slot] + z;
-        self.sum2[next] = self.sum2[slot] + z * z;
-        self.valid[next] = self.valid[slot] + ok;
-        self.n = k + 1;
-        for i in 0..self.factors.len() {
-            let m = self.factors[i];
-            if self.n < self.base + 2 * m as u64 {
-                break; // ascending factors: the larger ones have no complete term either
-            }
-            // Slots counted back from that of n (2m < L): no division per factor.
-            let (a, b) = (self.back(next, 2 * m), self.back(next, m));
-            self.append_term_at(i, a, b, next);
-        }
+        self.sum1[p + 1] = self.sum1[p] + z;
+        self.sum2[p + 1] = self.sum2[p] + z * z;
+        self.valid[p + 1] = self.valid[p] + ok;
+        self.n += 1;
+        self.append_terms(p + 1);
         if self.n - self.rebased_at >= self.len as u64 {
             self.rebase();
         }
@@ -260,7 +281,9 @@ impl DavarEngine {
         if rest > 0 {
             self.n += rest;
             self.t += rest;
+            // Nothing held is valid: the rebase keeps NaN from the front of the arrays.
             self.raw.fill(f64::NAN);
+            self.origin = (self.n + 1).saturating_sub(self.len as u64);
             self.rebase();
         }
     }
@@ -291,106 +314,72 @@ impl DavarEngine {
         self.tau0
     }
 
-    fn slot(&self, k: u64) -> usize {
-        (k % self.len as u64) as usize
+    /// The position of index `k` in the arrays.
+    fn pos(&self, k: u64) -> usize {
+        (k - self.origin) as usize
     }
 
-    /// `slot` + 0 … L − 1 brought back into the ring (one comparison instead of a division: the
-    /// push loop runs this K times per sample).
-    fn wrap(&self, slot: usize) -> usize {
-        if slot >= self.len {
-            slot - self.len
-        } else {
-            slot
+    /// Appends to every factor's prefix the term that the prefix sums at position `p` complete
+    /// (for factor m the one that starts at index origin + p − 2m), or zero while none is.
+    ///
+    /// Why by position: a push and a rebase both advance all factors by one sample; the factors'
+    /// sums are independent chains, so K additions are in flight, and each chain adds its terms
+    /// in index order (the same numbers as one factor at a time).
+    fn append_terms(&mut self, p: usize) {
+        let k = self.factors.len();
+        let complete = self.origin + p as u64 - self.base;
+        let (done, rest) = self.terms.split_at_mut(p * k);
+        let (before, now) = (&done[(p - 1) * k..], &mut rest[..k]);
+        let (s1, valid) = (&self.sum1[..=p], &self.valid[..=p]);
+        for (i, &m) in self.factors.iter().enumerate() {
+            now[i] = if complete < 2 * m as u64 {
+                Prefix::default() // no term of m starts at or after base yet
+            } else {
+                let d = s1[p] - 2.0 * s1[p - m] + s1[p - 2 * m];
+                let ok = valid[p] - valid[p - 2 * m] == 2 * m as u64;
+                Prefix {
+                    sum: before[i].sum + if ok { d * d } else { 0.0 },
+                    count: before[i].count + u64::from(ok),
+                }
+            };
         }
     }
 
-    /// The slot `d` indices before `slot` (d ≤ L).
-    fn back(&self, slot: usize, d: usize) -> usize {
-        if slot >= d {
-            slot - d
-        } else {
-            slot + self.len - d
-        }
-    }
-
-    /// Where the prefix of factor number `i` at `slot` is.
-    fn at(&self, i: usize, slot: usize) -> usize {
-        slot * self.factors.len() + i
-    }
-
-    /// Records the second difference that starts at index j for factor number `i`, from the
-    /// slots a, b, c of indices j, j + m, j + 2m.
-    #[inline(always)]
-    fn append_term_at(&mut self, i: usize, a: usize, b: usize, c: usize) {
-        let m = self.factors[i] as u64;
-        let d = self.sum1[c] - 2.0 * self.sum1[b] + self.sum1[a];
-        let ok = self.valid[c] - self.valid[a] == 2 * m;
-        let next = self.wrap(a + 1);
-        let from = self.terms[self.at(i, a)];
-        let to = self.at(i, next);
-        self.terms[to] = Prefix {
-            sum: from.sum + if ok { d * d } else { 0.0 },
-            count: from.count + u64::from(ok),
-        };
-    }
-
-    /// Recomputes every prefix from the raw samples in the ring, from zero (see the module doc).
+    /// Recomputes every prefix from the raw samples held, from zero (see the module doc), after
+    /// moving the samples kept to the front of the arrays.
     fn rebase(&mut self) {
         self.rebased_at = self.n;
         self.base = (self.n + 1).saturating_sub(self.len as u64);
-        let (sum, count) = (self.base..self.n)
-            .map(|k| self.raw[self.slot(k)])
+        let from = self.pos(self.base);
+        let held = (self.n - self.base) as usize;
+        self.raw.copy_within(from..from + held, 0);
+        self.origin = self.base;
+        let (sum, count) = self.raw[..held]
+            .iter()
             .filter(|y| y.is_finite())
             .fold((0.0, 0u64), |(s, c), y| (s + y, c + 1));
         if count > 0 {
             self.reference = Some(sum / count as f64);
         }
         let reference = self.reference.unwrap_or(0.0);
-        let first = self.slot(self.base);
-        self.sum1[first] = 0.0;
-        self.sum2[first] = 0.0;
-        self.valid[first] = 0;
-        let mut slot = first;
-        for _ in self.base..self.n {
-            let next = self.wrap(slot + 1);
-            let y = self.raw[slot];
+        self.sum1[0] = 0.0;
+        self.sum2[0] = 0.0;
+        self.valid[0] = 0;
+        for p in 0..held {
+            let y = self.raw[p];
             let (z, ok) = if y.is_finite() {
                 (y - reference, 1)
             } else {
                 (0.0, 0)
             };
-            self.sum1[next] = self.sum1[slot] + z;
-            self.sum2[next] = self.sum2[slot] + z * z;
-            self.valid[next] = self.valid[slot] + ok;
-            slot = next;
+            self.sum1[p + 1] = self.sum1[p] + z;
+            self.sum2[p + 1] = self.sum2[p] + z * z;
+            self.valid[p + 1] = self.valid[p] + ok;
         }
-        for i in 0..self.factors.len() {
-            let at = self.at(i, first);
-            self.terms[at] = Prefix::default();
+        self.terms[..self.factors.len()].fill(Prefix::default());
+        for p in 1..=held {
+            self.append_terms(p);
         }
-        // Index by index, every factor at each: the factors' sums are independent chains, so
-        // this keeps K additions in flight instead of waiting on one chain (each chain's
-        // additions are the same, in the same order, as factor by factor).
-        let (mut j, mut a) = (self.base, first);
-        while j + 2 * self.factors[0] as u64 <= self.n {
-            for i in 0..self.factors.len() {
-                let m = self.factors[i];
-                if j + 2 * m as u64 > self.n {
-                    break;
-                }
-                let (b, c) = (self.wrap(a + m), self.wrap(a + 2 * m));
-                self.append_term_at(i, a, b, c);
-            }
-            j += 1;
-            a = self.wrap(a + 1);
-        }
-    }
-
-    /// (edf, lo, hi) of factor number `i` for `terms` terms, from the table or else the cache.
-    fn interval(&mut self, i: usize, terms: usize) -> IntervalFactors {
-        let (m, shared) = (self.factors[i], &self.intervals);
-        self.interval_of[i].get(terms, || shared.factors(m, terms))
     }
 
     /// Emits every pending row whose window is complete, advancing the window policy.
@@ -400,7 +389,7 @@ impl DavarEngine {
             if start + self.w as u64 > self.n {
                 return;
             }
-            debug_assert!(start >= self.base && start + self.len as u64 > self.n);
+            debug_assert!(start >= self.base);
             let row = self.row(start);
             let f = row.as_ref().and_then(|r| r.f);
             let target = row.as_ref().and_then(|r| r.f_target);
@@ -422,9 +411,8 @@ impl DavarEngine {
     /// The row of the pending analysis index whose window starts at `start`; `None` when the
     /// window holds fewer than two valid samples.
     fn row(&mut self, start: u64) -> Option<DavarRow> {
-        let w = self.w as u64;
-        let a = self.slot(start);
-        let e = self.wrap(a + w as usize);
+        let a = self.pos(start);
+        let e = a + self.w;
         let valid = (self.valid[e] - self.valid[a]) as usize;
         if valid < 2 {
             return None;
@@ -441,26 +429,30 @@ impl DavarEngine {
             .pop()
             .unwrap_or_else(|| Vec::with_capacity(self.factors.len()));
         let mut excluded = 0usize;
-        for i in 0..self.factors.len() {
-            let m = self.factors[i];
-            if 3 * m > self.w {
+        let (k, w) = (self.factors.len(), self.w);
+        // The K upper ends side by side (see the module doc); locals, so that the loop keeps its
+        // values in registers.
+        let (terms_at, upper) = (&self.terms, &self.terms[e * k..(e + 1) * k]);
+        let (memo, shared) = (&mut self.interval_of, &self.intervals);
+        for (i, (&m, scale)) in self.factors.iter().zip(&self.scales).enumerate() {
+            if 3 * m > w {
                 break;
             }
-            let total = self.w - 2 * m + 1;
-            let end = self.wrap(a + total);
-            let (first, last) = (self.terms[self.at(i, a)], self.terms[self.at(i, end)]);
+            // The terms starting in [a, a + total) are those completed between the positions
+            // e − total and e (the prefixes are stored where their latest term completed).
+            let total = w - 2 * m + 1;
+            let (first, last) = (terms_at[(e - total) * k + i], upper[i]);
             let terms = (last.count - first.count) as usize;
             excluded += total - terms;
             if terms == 0 {
                 continue;
             }
             let sum = (last.sum - first.sum).max(0.0);
-            let mf = m as f64;
-            let avar = sum / (2.0 * mf * mf * terms as f64);
-            let (edf, lo, hi) = self.interval(i, terms);
+            let avar = sum / (scale.two_m2 * terms as f64);
+            let (edf, lo, hi) = memo.get(w, i, terms, || shared.factors(m, terms));
             points.push(AllanPoint {
                 m,
-                tau: mf * self.tau0,
+                tau: scale.tau,
                 avar,
                 terms,
                 edf,

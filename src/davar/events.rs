@@ -130,7 +130,7 @@ impl ChangeDetector {
         let band = &mut self.band;
         let (m, memo) = self.memo.get_or_insert_with(|| (p.m, IntervalMemo::default()));
         let (_, lo, hi) = if *m == p.m {
-            memo.get(p.terms, || band.factors(p.m, p.terms))
+            memo.get(p.terms, 0, p.terms, || band.factors(p.m, p.terms))
         } else {
             band.factors(p.m, p.terms)
         };

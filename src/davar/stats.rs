@@ -137,35 +137,60 @@ impl IntervalCache {
     }
 }
 
-/// A small direct-mapped memo of [`IntervalFactors`] by number of terms, for one averaging factor.
+/// A small direct-mapped memo of [`IntervalFactors`] for a few averaging factors (its lanes).
 ///
-/// Why: a DAVAR row needs one interval per τ, and from row to row the number of terms moves by a
-/// few (the window's step), so the last [`MEMO_SLOTS`] values of `terms` almost always hold it;
-/// a hash lookup per row and τ cost more than the row's arithmetic. Bounded memory, whatever λ2.
+/// Why: a DAVAR row needs one interval per τ, and from row to row the window moves by a few
+/// samples (the policy's step), so the last [`MEMO_SLOTS`] keys almost always hold it; a hash
+/// lookup per row and τ cost more than the row's arithmetic. Bounded memory, whatever λ2.
+///
+/// The key picks the entries, the number of terms checks them: a row of the engine keys by its
+/// window, so that the K lanes it reads lie side by side (in a window without invalid samples
+/// the terms at m are W − 2m + 1, the same at every such row); one lane keyed by its terms serves
+/// a single factor. Each entry holds the terms it was filled for (none when not yet), then
+/// its factors: plain values, not an `Option`, so that a hit is one compare and the factors stay
+/// in registers (the enum's copy went through the stack, a store-forwarding stall per row and τ).
 #[derive(Debug, Clone)]
-pub struct IntervalMemo(Vec<Option<(usize, IntervalFactors)>>);
+pub struct IntervalMemo {
+    lanes: usize,
+    entries: Vec<(usize, IntervalFactors)>,
+}
 
-/// Entries of an [`IntervalMemo`] (entry `terms mod MEMO_SLOTS`).
-pub const MEMO_SLOTS: usize = 256;
+/// Keys an [`IntervalMemo`] tells apart (entries of key k: those of `k mod MEMO_SLOTS`).
+pub const MEMO_SLOTS: usize = 512;
+
+/// The terms of an entry not yet filled (no window holds that many terms).
+const EMPTY: usize = usize::MAX;
 
 impl Default for IntervalMemo {
     fn default() -> Self {
-        IntervalMemo(vec![None; MEMO_SLOTS])
+        Self::new(1)
     }
 }
 
 impl IntervalMemo {
-    /// The factors for `terms`, from the memo or else from `fetch` (then remembered).
-    pub fn get(&mut self, terms: usize, fetch: impl FnOnce() -> IntervalFactors) -> IntervalFactors {
-        let entry = &mut self.0[terms % MEMO_SLOTS];
-        match *entry {
-            Some((t, f)) if t == terms => f,
-            _ => {
-                let f = fetch();
-                *entry = Some((terms, f));
-                f
-            }
+    /// A memo of `lanes` factors.
+    pub fn new(lanes: usize) -> Self {
+        IntervalMemo {
+            lanes,
+            entries: vec![(EMPTY, (f64::NAN, f64::NAN, f64::NAN)); MEMO_SLOTS * lanes],
         }
+    }
+
+    /// The factors of `lane` for `terms`, from the entry of `key` or else from `fetch` (then
+    /// remembered there).
+    #[inline]
+    pub fn get(
+        &mut self,
+        key: usize,
+        lane: usize,
+        terms: usize,
+        fetch: impl FnOnce() -> IntervalFactors,
+    ) -> IntervalFactors {
+        let entry = &mut self.entries[(key % MEMO_SLOTS) * self.lanes + lane];
+        if entry.0 != terms {
+            *entry = (terms, fetch());
+        }
+        entry.1
     }
 }
 

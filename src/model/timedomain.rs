@@ -17,6 +17,7 @@ use crate::model::fit::{AxisInput, FitError};
 use crate::model::measure::NoiseClass;
 use nalgebra::{DMatrix, DVector};
 use realfft::{num_complex::Complex, RealFftPlanner, RealToComplex};
+use std::collections::HashMap;
 use std::sync::{Arc, Mutex, PoisonError};
 use statrs::function::erf::erfc;
 
@@ -445,8 +446,8 @@ pub struct Whitened {
     /// Samples left out at the start of the series (and of every driver).
     skip: usize,
     len: usize,
-    /// The transform of `len` points, planned once: a driver's transform has the same length.
-    fft: Arc<dyn RealToComplex<f64>>,
+    /// The transform of `len` points and its taper, made once: a driver's has the same length.
+    plan: Plan,
     /// The transform of the tapered differences: shared by the weightings of one series
     /// ([`Whitened::with_noise`]), as long as the series itself.
     spectrum: Arc<Vec<Complex<f64>>>,
@@ -474,21 +475,21 @@ impl Whitened {
         }
         let len = fast_len(y.len() - 1);
         let skip = y.len() - 1 - len;
-        let fft = plans.forward(len);
-        let spectrum = Arc::new(tapered_diff_dft(&y[skip..], fft.as_ref()));
-        Self::weighted(skip, len, fft, spectrum, noise)
+        let plan = plans.forward(len);
+        let spectrum = Arc::new(tapered_diff_dft(&y[skip..], &plan));
+        Self::weighted(skip, len, plan, spectrum, noise)
     }
 
     /// The same series weighted by another base noise: what [`Whitened::new`] gives on the same
     /// `y`, without transforming it again.
     pub fn with_noise(&self, noise: &NoiseSpectrum) -> Option<Self> {
-        Self::weighted(self.skip, self.len, Arc::clone(&self.fft), Arc::clone(&self.spectrum), noise)
+        Self::weighted(self.skip, self.len, self.plan.clone(), Arc::clone(&self.spectrum), noise)
     }
 
     fn weighted(
         skip: usize,
         len: usize,
-        fft: Arc<dyn RealToComplex<f64>>,
+        plan: Plan,
         spectrum: Arc<Vec<Complex<f64>>>,
         noise: &NoiseSpectrum,
     ) -> Option<Self> {
@@ -498,7 +499,7 @@ impl Whitened {
         if untapered.iter().skip(1).any(|s| !(s.is_finite() && *s > 0.0)) {
             return None;
         }
-        Some(Whitened { noise: noise.clone(), skip, len, fft, spectrum, untapered })
+        Some(Whitened { noise: noise.clone(), skip, len, plan, spectrum, untapered })
     }
 
     /// The base noise the series is weighted by.
@@ -578,7 +579,7 @@ impl Whitened {
         if x.len() != self.skip + self.len + 1 {
             return None;
         }
-        let xs = tapered_diff_dft(&x[self.skip..], self.fft.as_ref());
+        let xs = tapered_diff_dft(&x[self.skip..], &self.plan);
         let bins = xs.len();
         // The weights a_k are computed where used, not stored: a whole-run record's driver
         // transform is millions of bins.
@@ -742,17 +743,33 @@ pub fn block_regression(y: &[f64], x: Option<&[f64]>, noise: &NoiseSpectrum) -> 
     Some(Regression { coefficient: slope, sigma, t2: (slope / sigma).powi(2) })
 }
 
-/// Forward FFT plans by length, shared by the diagnoses of one record's axes.
+/// Forward FFT plans and Hann tapers by length, shared by the diagnoses of one record's axes.
 ///
 /// Why: planning a transform (its twiddle factors) can cost as much as the transform itself, and
-/// every axis of a record has the same length. A plan depends on the length only, so a shared
-/// one gives the same numbers.
-pub struct Plans(Mutex<RealFftPlanner<f64>>);
+/// a taper costs a sine per point (7 % of a diagnosis when made per transform); every axis of a
+/// record has the same length. Both depend on the length only, so shared ones give the same
+/// numbers.
+pub struct Plans(Mutex<Made>);
+
+/// What [`Plans`] made so far: the planner (which keeps its plans) and the tapers by length.
+#[derive(Default)]
+struct Made {
+    planner: RealFftPlanner<f64>,
+    tapers: HashMap<usize, Arc<[f64]>>,
+}
 
 impl Default for Plans {
     fn default() -> Self {
-        Plans(Mutex::new(RealFftPlanner::new()))
+        Plans(Mutex::new(Made::default()))
     }
+}
+
+/// A forward real-to-complex transform of n points and the Hann taper of the n differences it
+/// transforms.
+#[derive(Clone)]
+pub struct Plan {
+    fft: Arc<dyn RealToComplex<f64>>,
+    taper: Arc<[f64]>,
 }
 
 impl std::fmt::Debug for Plans {
@@ -762,10 +779,17 @@ impl std::fmt::Debug for Plans {
 }
 
 impl Plans {
-    /// The forward real-to-complex transform of `len` points (planned once per length).
-    pub fn forward(&self, len: usize) -> Arc<dyn RealToComplex<f64>> {
-        // A planner is left consistent by a panic elsewhere: its cache only ever gains plans.
-        self.0.lock().unwrap_or_else(PoisonError::into_inner).plan_fft_forward(len)
+    /// The forward real-to-complex transform of `len` points and its taper (made once per length).
+    pub fn forward(&self, len: usize) -> Plan {
+        // A planner is left consistent by a panic elsewhere: its caches only ever gain entries.
+        let mut made = self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        let Made { planner, tapers } = &mut *made;
+        let taper = tapers.entry(len).or_insert_with(|| {
+            (0..len)
+                .map(|j| (std::f64::consts::PI * (j as f64 + 0.5) / len as f64).sin().powi(2))
+                .collect()
+        });
+        Plan { taper: Arc::clone(taper), fft: planner.plan_fft_forward(len) }
     }
 }
 
@@ -808,7 +832,7 @@ fn is_fast(m: usize) -> bool {
 
 /// DFT of the first differences of `y`, Hann-tapered (a non-finite sample holds the last finite value:
 /// its differences are 0 and the increment across it goes to the next one),
-/// bins 0 … ⌈(n−1)/2⌉−1, by `fft` (planned for n − 1 points). Their mean is kept: it is the
+/// bins 0 … ⌈(n−1)/2⌉−1, by `plan` (made for n − 1 points). Their mean is kept: it is the
 /// end-minus-start jump that the taper cancels (removing it would leave −¼ of the jump in bin 1).
 ///
 /// Why hold, not the series' mean: on a wandering axis a sample read as the mean is a jump there
@@ -818,18 +842,18 @@ fn is_fast(m: usize) -> bool {
 ///
 /// Why a real-to-complex transform: the differences are real, so half the spectrum is the
 /// other's conjugate; computing only that half takes half the memory of a complex transform.
-fn tapered_diff_dft(y: &[f64], fft: &dyn RealToComplex<f64>) -> Vec<Complex<f64>> {
-    let n = y.len().saturating_sub(1);
+fn tapered_diff_dft(y: &[f64], plan: &Plan) -> Vec<Complex<f64>> {
+    let (n, fft) = (y.len().saturating_sub(1), &plan.fft);
     let mut held = y.iter().copied().find(|v| v.is_finite()).unwrap_or(0.0);
+    debug_assert_eq!(plan.taper.len(), n);
     let mut d: Vec<f64> = y
         .windows(2)
-        .enumerate()
-        .map(|(j, w)| {
+        .zip(plan.taper.iter())
+        .map(|(w, h)| {
             if w[0].is_finite() {
                 held = w[0];
             }
             let v = if w[1].is_finite() { w[1] - held } else { 0.0 };
-            let h = (std::f64::consts::PI * (j as f64 + 0.5) / n as f64).sin().powi(2);
             v * h
         })
         .collect();

@@ -7,8 +7,8 @@
 //! whole-run record (the same [`fdavar::analysis::Analysis`] `fdavar diagnose` fills, so the
 //! diagnosis is its answer, bit for bit); chunks of the same samples go to worker threads, each
 //! running the node's DAVAR [`Pipeline`] on its share of the axes (an axis's rows depend on its
-//! own values and the stamps only, so they are those of `fdavar davar`); then the axes are
-//! diagnosed in parallel. Memory: the record (bounded, see [`fdavar::model::record`]), the
+//! own values and the stamps only, so they are those of `fdavar davar`); once the bag is read the
+//! axes are diagnosed in parallel, while the row workers finish. Memory: the record (bounded, see [`fdavar::model::record`]), the
 //! pipelines' rings and at most [`CHUNKS_IN_FLIGHT`] chunks per worker.
 
 use crate::diagnose::{diagnose_all, write_diagnosis};
@@ -131,7 +131,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         .map(|g| Pipeline::new(davar.clone(), g, None))
         .collect::<Result<Vec<_>, _>>()
         .context("cannot start the DAVAR pipeline")?;
-    let (mut analysis, rows) = std::thread::scope(|scope| -> anyhow::Result<_> {
+    let (analysis, diagnoses, rows) = std::thread::scope(|scope| -> anyhow::Result<_> {
         let (senders, workers): (Vec<SyncSender<Arc<[ImuSample]>>>, Vec<_>) = pipelines
             .into_iter()
             .map(|p| {
@@ -147,7 +147,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             }
             Ok(())
         };
-        let analysis = load_with(&args.bag, &args.model, args.selection.topic.as_deref(), None, None, &mut |s| {
+        let mut analysis = load_with(&args.bag, &args.model, args.selection.topic.as_deref(), None, None, &mut |s| {
             chunk.push(*s);
             if chunk.len() == CHUNK {
                 send(&mut chunk)?;
@@ -156,13 +156,15 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         })?;
         send(&mut chunk)?;
         drop(senders);
+        // The record is complete: the diagnosis starts while the row workers finish their
+        // queues (both need the cores; neither waits for the other).
+        let diagnoses = diagnose_all(&mut analysis, &axes, jobs)?;
         let rows: Vec<Rows> = workers
             .into_iter()
             .map(|w| w.join().expect("a DAVAR worker panicked"))
             .collect();
-        Ok((analysis, rows))
+        Ok((analysis, diagnoses, rows))
     })?;
-    let diagnoses = diagnose_all(&mut analysis, &axes, jobs)?;
     let mut summaries: Vec<RowSummary> = rows.iter().flat_map(|r| r.summaries.iter().copied()).collect();
     summaries.sort_by_key(|s| s.axis);
     let mut events: Vec<AxisEvent> = rows.iter().flat_map(|r| r.events.iter().cloned()).collect();

@@ -251,9 +251,10 @@ pub const ONE_SIGMA: f64 = 0.682_689_492_137_085_9;
 /// were made with.
 ///
 /// Two methods, not one, because the numbers already printed depend on each: `fdavar allan`'s
-/// bounds on the polished quantile, the fit's 68.3 % bounds (its CSV and figures) and the DAVAR
-/// engine's intervals on statrs' own inversion. Moving them onto one method would change every
-/// bound they print in the last digits.
+/// bounds and the fit's 68.3 % bounds (its CSV and figures) on the polished quantile, the DAVAR
+/// engine's intervals and change detector on statrs' own inversion. Moving the engine would change
+/// its rows' bounds in the last digits (its windows keep the EDF far below the millions where
+/// statrs' inversion breaks down, see [`crate::model::measure::chi2_interval`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Chi2Inversion {
     /// Wilson–Hilferty start, polished by Newton steps on statrs' CDF: accurate for any EDF,

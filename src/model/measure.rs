@@ -131,8 +131,13 @@ pub const FIT_CONFIDENCE: f64 = 0.6827;
 /// The 68.3 % χ² interval of a variance estimate with `edf` degrees of freedom, as the fit reports
 /// it ([`crate::model::fit::FitPoint::ci`]).
 ///
-/// [`chi2_interval_with`] at [`FIT_CONFIDENCE`] with statrs' quantiles
-/// ([`Chi2Inversion::Statrs`]), `edf` read as at least 10⁻³; `(0, ∞)` when no interval exists.
+/// [`chi2_interval_with`] at [`FIT_CONFIDENCE`] with the polished quantiles
+/// ([`Chi2Inversion::Newton`]), `edf` read as at least 10⁻³; `(0, ∞)` when no interval exists.
+///
+/// Why not statrs' own inversion, which the fit used until 2026-11-25: at EDF in the millions,
+/// which the shortest τ of a long full-rate record reaches, it breaks down (measured: the lower
+/// quantile NaN at 2·10⁶, the upper −∞ at 10⁷, both NaN at 10⁸), so the CSV's `adev_low` was NaN
+/// and the figures drew the band down to 0 there. Below that the two agree to about 10⁻⁸.
 ///
 /// # Formula
 /// ```text
@@ -148,7 +153,7 @@ pub const FIT_CONFIDENCE: f64 = 0.6827;
 /// assert!((lo - 10.0 / 14.32551).abs() < 1e-4 && (hi - 10.0 / 5.68062).abs() < 1e-4);
 /// ```
 pub fn chi2_interval(avar: f64, edf: f64) -> (f64, f64) {
-    chi2_interval_with(avar, edf.max(1e-3), FIT_CONFIDENCE, Chi2Inversion::Statrs)
+    chi2_interval_with(avar, edf.max(1e-3), FIT_CONFIDENCE, Chi2Inversion::Newton)
         .unwrap_or((0.0, f64::INFINITY))
 }
 
@@ -157,19 +162,21 @@ mod tests {
     use super::*;
 
     #[test]
-    fn chi2_interval_keeps_the_bits_of_its_own_statrs_formula() {
-        // The interval as this file computed it before `allan::edf` held the one implementation:
-        // the fit's CSV and figure bounds depend on these bits.
-        use statrs::distribution::{ChiSquared, ContinuousCDF};
-        for edf in [1.0, 3.5, 20.0, 800.0, 5e4] {
-            let chi = ChiSquared::new(edf).unwrap();
-            let lo = chi.inverse_cdf(0.5 + 0.6827 / 2.0);
-            let hi = chi.inverse_cdf(0.5 - 0.6827 / 2.0);
-            let (got_lo, got_hi) = chi2_interval(2.5, edf);
-            assert_eq!(got_lo.to_bits(), (2.5 * edf / lo).to_bits(), "edf {edf}");
-            assert_eq!(got_hi.to_bits(), (2.5 * edf / hi).to_bits(), "edf {edf}");
+    fn chi2_interval_is_finite_and_tight_at_every_edf() {
+        // scipy.stats.chi2.ppf(0.5 ± 0.6827/2, 10) = 14.325, 5.6806 (4 digits are enough to pin
+        // the level); at large EDF the interval is avar·(1 ∓ √(2/edf)) to first order.
+        let (lo, hi) = chi2_interval(1.0, 10.0);
+        assert!((lo - 10.0 / 14.325).abs() < 1e-4 && (hi - 10.0 / 5.6806).abs() < 1e-4, "{lo} {hi}");
+        for edf in [1.0, 3.5, 20.0, 800.0, 5e4, 3e5, 2e6, 1e7, 1e8] {
+            let (lo, hi) = chi2_interval(2.5, edf);
+            assert!(lo.is_finite() && hi.is_finite() && 0.0 < lo && lo < 2.5 && 2.5 < hi, "edf {edf}: {lo} {hi}");
+            if edf >= 800.0 {
+                let half = 2.5 * (2.0 / edf).sqrt();
+                assert!((2.5 - lo - half).abs() < 0.1 * half && (hi - 2.5 - half).abs() < 0.1 * half, "edf {edf}: {lo} {hi}");
+            }
         }
-        // Why the level survives the move: (1 − c)/2 and 1 − (1 − c)/2 are exactly 0.5 ∓ c/2.
+        // Why the level survives the move to `allan::edf`: (1 − c)/2 and 1 − (1 − c)/2 are
+        // exactly 0.5 ∓ c/2.
         let p = (1.0 - FIT_CONFIDENCE) / 2.0;
         assert_eq!(p, 0.5 - FIT_CONFIDENCE / 2.0);
         assert_eq!(1.0 - p, 0.5 + FIT_CONFIDENCE / 2.0);

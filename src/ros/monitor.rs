@@ -73,7 +73,7 @@ pub enum BadInput {
     Duplicate,
     /// A zero stamp in a stream whose stamps are not zero (dropped).
     ZeroStamp,
-    /// An interval longer than 1.5 τ0.
+    /// A stamp more than 1.5 τ0 after the previous one on the grid.
     Gap,
     /// The measured rate moved more than 20 % from the nominal one.
     RateChange,

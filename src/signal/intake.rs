@@ -9,7 +9,7 @@
 //!   nothing is re-sorted), until [`REANCHOR_AFTER`] backwards stamps come in a row: the clock went
 //!   back for good (a restarted publisher), so that stamp is placed as the new reference, after a
 //!   gap of the samples dropped while deciding (counted in `reanchors`, not `backwards`);
-//! - a gap (interval > 1.5 τ0) is reported as the number of missing periods before the sample, so
+//! - a gap (a stamp > 1.5 τ0 after the previous one on the grid, [`StampCheck::check`](super::StampCheck::check)) is reported as the number of missing periods before the sample, so
 //!   that no Allan term straddles it;
 //! - a NaN or infinite value stays in its axis (each analysis treats it as a missing value of that
 //!   axis) and is counted once per value; a value beyond [`MAX_ABS_RATE`] (10⁶ rad/s or m/s²) is

@@ -183,7 +183,7 @@ pub const RATE_CHANGE: f64 = 0.2;
 pub enum StampClass {
     /// The next sample, about one period after the previous one.
     Next,
-    /// Later than 1.5 τ0 after the previous one: samples are missing in between.
+    /// More than 1.5 τ0 after the previous stamp on the grid ([`StampCheck::check`]): samples are missing in between.
     Gap {
         /// Whole periods missing (rounded), at least 1.
         missing: u64,
@@ -204,7 +204,7 @@ pub enum StampClass {
 /// Counts of the irregularities met so far on one stream (published as-is).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Irregularities {
-    /// Intervals longer than 1.5 τ0.
+    /// Stamps more than 1.5 τ0 after the previous one on the grid.
     pub gaps: u64,
     /// Samples with the same stamp as the previous one (dropped).
     pub duplicates: u64,
@@ -270,12 +270,15 @@ pub fn backwards_run(run: (u32, Option<i64>), stamp_ns: i64) -> (u32, Option<i64
 /// Classifies each stamp against the previous accepted one.
 ///
 /// Why a separate type: the bag reader, the offline pipeline and the node all need the same rule
-/// (docs/design.md §1: a gap is an interval > 1.5 τ0), and the same input must give the same counts live
+/// (docs/design.md §1: a gap is a stamp > 1.5 τ0 after the previous one on the grid), and the same input must give the same counts live
 /// and offline.
 #[derive(Debug, Clone)]
 pub struct StampCheck {
     period_ns: f64,
     last_ns: Option<i64>,
+    /// The last stamp that fell on its own slot of the grid, and the samples placed after it
+    /// (see [`StampCheck::check`]).
+    on_time: Option<(i64, u64)>,
     /// Backwards stamps in a row since the last accepted one, each later than the one before, and
     /// the last of them.
     backwards_run: (u32, Option<i64>),
@@ -286,12 +289,17 @@ pub struct StampCheck {
     counts: Irregularities,
 }
 
+/// Most samples in a row that may come early (a packet of messages stamped on receipt) before the
+/// grid's reference moves to the latest of them ([`StampCheck::check`]).
+pub const MAX_EARLY_RUN: u64 = 32;
+
 impl StampCheck {
     /// A check for a stream with nominal period `period_s` seconds.
     pub fn new(period_s: f64) -> Self {
         StampCheck {
             period_ns: period_s * 1e9,
             last_ns: None,
+            on_time: None,
             backwards_run: (0, None),
             rate_window: (0, 0.0),
             off_rate: false,
@@ -318,9 +326,21 @@ impl StampCheck {
     /// backwards; the [`REANCHOR_AFTER`]th backwards stamp in a row, or a stamp more than
     /// [`MAX_GAP_SAMPLES`] periods ahead, is remembered as the new reference
     /// ([`StampClass::Reanchored`]).
+    ///
+    /// A gap is measured from the last stamp that fell on its own slot, not from the previous
+    /// stamp: a sample k slots after that one is missing nothing before it unless its stamp is
+    /// more than k + ½ periods later. Why: a driver that stamps messages when it reads them gets
+    /// them in packets (a serial or USB IMU: 4 messages 20 µs apart, then nothing for 4 periods).
+    /// Measured from the previous stamp, every packet opened with a gap of 3 and the record grew
+    /// by 3 invalid samples per 4; now the packet's messages take the next slots and the packet
+    /// after it is on time. A sample more than half a period early keeps the reference (for at
+    /// most [`MAX_EARLY_RUN`] samples, so that a clock faster than τ0 cannot hide a gap for long).
+    /// With every stamp on its own slot (regular stamps, jitter below half a period) the
+    /// reference is the previous stamp, and the classes are those of the previous stamp's rule.
     pub fn check(&mut self, stamp_ns: i64) -> StampClass {
         let Some(last) = self.last_ns else {
             self.last_ns = Some(stamp_ns);
+            self.on_time = Some((stamp_ns, 0));
             return StampClass::Next;
         };
         let class = match stamp_ns.cmp(&last) {
@@ -336,10 +356,12 @@ impl StampCheck {
                 }
             }
             std::cmp::Ordering::Greater => {
-                let dt = (stamp_ns - last) as f64;
-                if dt > 1.5 * self.period_ns {
+                let (reference, since) = self.on_time.unwrap_or((last, 0));
+                let expected = since + 1;
+                let dt = (stamp_ns - reference) as f64;
+                if dt > (expected as f64 + 0.5) * self.period_ns {
                     let missing = ((dt / self.period_ns).round() as u64)
-                        .saturating_sub(1)
+                        .saturating_sub(expected)
                         .max(1);
                     if missing > MAX_GAP_SAMPLES {
                         StampClass::Reanchored { dropped: 0 }
@@ -347,7 +369,7 @@ impl StampCheck {
                         StampClass::Gap { missing }
                     }
                 } else {
-                    self.note_interval(dt);
+                    self.note_interval((stamp_ns - last) as f64);
                     StampClass::Next
                 }
             }
@@ -359,10 +381,20 @@ impl StampCheck {
             StampClass::Reanchored { .. } => self.counts.reanchors += 1,
             StampClass::Next => {}
         }
-        // A stamp that moves the stream on is the new reference and ends a backwards run.
+        // A stamp that moves the stream on ends a backwards run; it is the grid's reference unless
+        // it came early (a message of a packet) after one that was on time.
         if !matches!(class, StampClass::Duplicate | StampClass::Backwards) {
             self.backwards_run = (0, None);
             self.last_ns = Some(stamp_ns);
+            self.on_time = match (class, self.on_time) {
+                (StampClass::Next, Some((reference, since)))
+                    if since < MAX_EARLY_RUN
+                        && ((stamp_ns - reference) as f64) < (since as f64 + 0.5) * self.period_ns =>
+                {
+                    Some((reference, since + 1))
+                }
+                _ => Some((stamp_ns, 0)),
+            };
         }
         class
     }
@@ -407,6 +439,32 @@ mod tests {
         assert_eq!(c.check(60_000_000), StampClass::Next);
         let n = c.counts();
         assert_eq!((n.gaps, n.duplicates, n.backwards), (1, 1, 1));
+    }
+
+    /// Messages read in packets of 4 and stamped on receipt (20 µs apart, then 4 periods later
+    /// the next packet) are consecutive samples: no gap. A real gap after a packet is still
+    /// counted, with the right number of missing samples, and so is a gap after regular stamps.
+    #[test]
+    fn packets_stamped_on_receipt_leave_no_gap() {
+        let p = 10_000_000;
+        let mut c = StampCheck::new(0.01);
+        let mut classes = Vec::new();
+        for i in 0..40i64 {
+            classes.push(c.check((i / 4) * 4 * p + 3 * p + (i % 4) * 20_000));
+        }
+        assert!(classes.iter().all(|k| *k == StampClass::Next), "{classes:?}");
+        // The next packet comes 2 packets late: 8 samples missing before it.
+        assert_eq!(c.check(10 * 4 * p + 8 * p + 3 * p), StampClass::Gap { missing: 8 });
+        for k in 1..4 {
+            assert_eq!(c.check(10 * 4 * p + 8 * p + 3 * p + k * 20_000), StampClass::Next);
+        }
+        assert_eq!(c.check(11 * 4 * p + 8 * p + 3 * p), StampClass::Next);
+        assert_eq!(c.counts().gaps, 1);
+        // Jitter of 0.4 τ0 back and forth: no gap (the previous-stamp rule saw 1.8 τ0 as one).
+        let mut c = StampCheck::new(0.01);
+        for (i, j) in [0i64, 4, -4, 4, -4, 0].iter().enumerate() {
+            assert_eq!(c.check(i as i64 * p + j * p / 10), StampClass::Next, "sample {i}");
+        }
     }
 
     /// Issue 13: a 100 → 400 Hz change kept τ0 = 10 ms without a word. One change is counted

@@ -16,7 +16,7 @@ const PERIOD_STAMPS: usize = 1001;
 ///
 /// Reads the summaries of the bag's files, then streams each sensor_msgs/msg/Imu topic (or only
 /// --topic) to measure its sensor-clock period (median interval of the first 1000) and to count
-/// gaps (> 1.5 τ0), duplicated and backward stamps and NaN/Inf values.
+/// gaps (a stamp > 1.5 τ0 after the previous one on the grid), duplicated and backward stamps and NaN/Inf values.
 #[derive(Debug, clap::Args, PartialEq)]
 pub struct Args {
     /// The recording: a rosbag2 directory, a .mcap or a .db3 file.

@@ -261,6 +261,9 @@ fn invalid_specs_name_the_field() {
         ("seed: 7", "seed: 7\nlost_messages: { every_s: 1, length_s: 0.6 }", "lost_messages.length_s"),
         ("seed: 7", "seed: 7\nlost_messages: { length_s: 0.1 }", "lost_messages.length_s"),
         ("seed: 7", "seed: 7\nlost_messages: { every_s: -1 }", "lost_messages.every_s"),
+        ("seed: 7", "seed: 7\nreceipt_stamps: { packet: 0 }", "receipt_stamps.packet"),
+        ("seed: 7", "seed: 7\nreceipt_stamps: { packet: 8, spacing_s: 1.0e-3 }", "receipt_stamps.spacing_s"),
+        ("seed: 7", "seed: 7\nreceipt_stamps: { packet: 4, jitter_s: 6.0e-3 }", "receipt_stamps.jitter_s"),
         (
             x,
             "gyro_x: { N: { n: 1.0e-3 }, bias_step: { time_s: 60, size: 1 }",

@@ -24,7 +24,7 @@
 
 mod spec;
 
-pub use spec::{EffectMap, LostMessages, ParamValue, SimSpec, TemperatureProfile, Topics, MAX_SAMPLES};
+pub use spec::{EffectMap, LostMessages, ParamValue, ReceiptStamps, SimSpec, TemperatureProfile, Topics, MAX_SAMPLES};
 
 use crate::model::effects::{id, Effect, ParamError, SimContext, SimStage};
 use crate::signal::{Axis, ImuSample, TemperatureSample};
@@ -124,6 +124,9 @@ pub struct Truth {
     /// How many of the `samples` were lost: the bag holds the others.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub messages_lost: usize,
+    /// The stamps given on receipt, as the spec asked (absent: the sensor's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub receipt_stamps: Option<ReceiptStamps>,
 }
 
 fn is_zero(n: &usize) -> bool {
@@ -160,6 +163,9 @@ pub struct Columns {
     values: [Vec<f64>; 6],
     /// Per sample, true when its message is lost ([`LostMessages`]); empty when none is.
     lost: Vec<bool>,
+    /// Per sample, its stamp in ns after the first sample's time ([`ReceiptStamps`]); empty for
+    /// the sensor's own stamps.
+    receipt_ns: Vec<i64>,
     /// The temperature samples (empty without a temperature profile).
     pub temperature: Vec<TemperatureSample>,
     /// What went in.
@@ -185,7 +191,10 @@ impl Columns {
         (0..self.values[0].len())
             .filter(|&j| !self.lost.get(j).copied().unwrap_or(false))
             .map(move |j| ImuSample {
-                stamp_ns: stamp_ns(self.truth.start_time_ns, j as f64 * period_ns),
+                stamp_ns: match self.receipt_ns.get(j) {
+                    Some(offset) => self.truth.start_time_ns + offset,
+                    None => stamp_ns(self.truth.start_time_ns, j as f64 * period_ns),
+                },
                 gyro: [v[0][j], v[1][j], v[2][j]],
                 accel: [v[3][j], v[4][j], v[5][j]],
             })
@@ -373,7 +382,12 @@ pub fn simulate_columns(spec: &SimSpec) -> Result<Columns, SimError> {
             .collect(),
         lost_messages: spec.lost_messages,
         messages_lost: 0,
+        receipt_stamps: spec.receipt_stamps,
     };
+    let receipt_ns = spec
+        .receipt_stamps
+        .map(|r| r.offsets_ns(dt, n, spec.seed))
+        .unwrap_or_default();
     let lost = spec
         .lost_messages
         .map(|l| l.lost(spec.rate_hz, n, spec.seed))
@@ -385,6 +399,7 @@ pub fn simulate_columns(spec: &SimSpec) -> Result<Columns, SimError> {
     Ok(Columns {
         values,
         lost,
+        receipt_ns,
         temperature,
         truth,
     })

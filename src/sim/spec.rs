@@ -48,7 +48,96 @@ pub struct SimSpec {
     /// Messages lost on the way to the recorder (default: none).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lost_messages: Option<LostMessages>,
+    /// Stamps given on receipt by the driver instead of the sensor's clock (default: the sensor's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub receipt_stamps: Option<ReceiptStamps>,
 }
+
+/// Stamps that a driver gives when it reads the messages, as many ROS drivers of serial and USB
+/// IMUs do, instead of the sensor's sample times.
+///
+/// Messages are read in packets of `packet`: the k-th message of a packet is stamped at the time
+/// of the packet's last sample plus k·`spacing_s`, and each packet's read time moves by a uniform
+/// offset in ±`jitter_s` (the reading thread's scheduling), so that stamps keep their order. The values are those of the sensor's grid; only
+/// `header.stamp` changes. What the analysis must do with it: lay the messages out on the grid as
+/// the sensor's stamps would be (docs/design.md §1, tests/stamps_on_receipt.rs).
+///
+/// ```
+/// use fdavar::sim::ReceiptStamps;
+/// let r = ReceiptStamps { packet: 4, spacing_s: 2e-5, jitter_s: 0.0 };
+/// let stamps = r.offsets_ns(0.005, 8, 1);
+/// // Samples 0–3 are read with sample 3 (at 15 ms), 20 µs apart; 4–7 with sample 7.
+/// assert_eq!(stamps, [15_000_000, 15_020_000, 15_040_000, 15_060_000, 35_000_000, 35_020_000, 35_040_000, 35_060_000]);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReceiptStamps {
+    /// Messages read together, 1 to [`crate::signal::MAX_EARLY_RUN`] (default 1).
+    #[serde(default = "one")]
+    pub packet: u64,
+    /// Time between the stamps of one packet's messages, s (default 20 µs).
+    #[serde(default = "default_spacing")]
+    pub spacing_s: f64,
+    /// Half-width of a uniform jitter of each packet's read time, s (default 0).
+    #[serde(default)]
+    pub jitter_s: f64,
+}
+
+fn one() -> u64 {
+    1
+}
+fn default_spacing() -> f64 {
+    2e-5
+}
+
+impl ReceiptStamps {
+    /// The stamps of `n` samples at `period_s`, in ns from the first sample's time; the jitter
+    /// draws from its own ChaCha8 stream of `seed`.
+    pub fn offsets_ns(&self, period_s: f64, n: usize, seed: u64) -> Vec<i64> {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        rng.set_stream(RECEIPT_STAMPS_STREAM);
+        let packet = self.packet.max(1) as usize;
+        let mut jitter = 0.0;
+        (0..n)
+            .map(|j| {
+                // One read time per packet: its messages keep their order and spacing.
+                if j % packet == 0 && self.jitter_s > 0.0 {
+                    jitter = rng.random_range(-self.jitter_s..self.jitter_s);
+                }
+                let read = ((j / packet) * packet + packet - 1).min(n - 1);
+                let t = read as f64 * period_s + (j % packet) as f64 * self.spacing_s + jitter;
+                (t * 1e9).round() as i64
+            })
+            .collect()
+    }
+
+    fn check(&self, period_s: f64) -> Result<(), SimError> {
+        if !(1..=crate::signal::MAX_EARLY_RUN).contains(&self.packet) {
+            return Err(field_error(
+                "receipt_stamps.packet",
+                format!("must lie in [1, {}], got {}", crate::signal::MAX_EARLY_RUN, self.packet),
+            ));
+        }
+        let spread = (self.packet - 1) as f64 * self.spacing_s;
+        if !(self.spacing_s >= 0.0 && spread < 0.5 * period_s) {
+            return Err(field_error(
+                "receipt_stamps.spacing_s",
+                format!("must be ≥ 0 with a packet's stamps within half a period ({} s), got {}", 0.5 * period_s, self.spacing_s),
+            ));
+        }
+        if !(self.jitter_s >= 0.0 && self.jitter_s < 0.5 * period_s - spread) {
+            return Err(field_error(
+                "receipt_stamps.jitter_s",
+                format!("must lie in [0, {} s) (half a period, less the packet's spread)", 0.5 * period_s - spread),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// ChaCha8 stream of the receipt stamps' jitter.
+const RECEIPT_STAMPS_STREAM: u64 = (2 << 16) + 1;
 
 /// Messages lost between the sensor and the recorder, as a robot's network loses them.
 ///
@@ -451,6 +540,9 @@ impl SimSpec {
         }
         if let Some(lost) = &self.lost_messages {
             lost.check()?;
+        }
+        if let Some(receipt) = &self.receipt_stamps {
+            receipt.check(1.0 / self.rate_hz)?;
         }
         if let Some(t) = &self.temperature {
             for (field, v) in [

@@ -80,6 +80,7 @@ fn measured(rng: &mut ChaCha8Rng) -> Vec<MeasuredPoint> {
                 dev: avar.sqrt(),
                 dev_low: (avar / (1.0 + half)).sqrt(),
                 dev_high: (avar / (1.0 - half).max(0.05)).sqrt(),
+                bridged: false,
             }
         })
         .collect()
@@ -409,7 +410,7 @@ fn comparison_after_column_draws_the_data_it_was_fitted_to() {
     let n = same.measured.len();
     let after: Vec<MeasuredPoint> = same.measured[..n - 5]
         .iter()
-        .map(|p| MeasuredPoint { tau: p.tau, dev: p.dev / 2.0, dev_low: p.dev_low / 2.0, dev_high: p.dev_high / 2.0 })
+        .map(|p| MeasuredPoint { tau: p.tau, dev: p.dev / 2.0, dev_low: p.dev_low / 2.0, dev_high: p.dev_high / 2.0, bridged: false })
         .collect();
     residual.after_measured = Some(after);
     let circles = |fig: &AllanComparison, name: &str| {
@@ -504,6 +505,27 @@ fn allan_zero_term_is_drawn_as_absent_not_an_error() {
     let paths = write_allan(&fig, &stem).unwrap();
     let svg = std::fs::read_to_string(&paths[1]).unwrap();
     assert!(svg.contains("random_walk (K) (zero)"));
+}
+
+/// Points measured across lost samples are drawn hollow and named in the legend; a figure without
+/// them has neither.
+#[test]
+fn bridged_points_are_hollow_and_named() {
+    let (_tmp, stem) = stem();
+    let mut fig = allan_figure();
+    let plain = std::fs::read_to_string(&write_allan(&fig, &stem).unwrap()[1]).unwrap();
+    let hollow = |svg: &str| {
+        svg.split("<circle").skip(1).filter(|c| c.split("/>").next().unwrap_or("").contains("fill=\"none\"")).count()
+    };
+    assert!(!plain.contains("bridged over lost samples"));
+    let long = fig.measured.len() - 5;
+    for p in &mut fig.measured[long..] {
+        p.bridged = true;
+    }
+    let svg = std::fs::read_to_string(&write_allan(&fig, &stem).unwrap()[1]).unwrap();
+    assert!(svg.contains("bridged over lost samples"));
+    // Five hollow points and the legend's, where the plain figure drew none.
+    assert_eq!(hollow(&svg) - hollow(&plain), 6, "{}", hollow(&plain));
 }
 
 #[test]
@@ -713,6 +735,7 @@ proptest! {
                 dev,
                 dev_low: dev / (1.0 + spread.abs()),
                 dev_high: dev * (1.0 + spread.abs()),
+                bridged: false,
             })
             .collect();
         let taus: Vec<f64> = measured.iter().map(|p| p.tau).collect();
@@ -750,7 +773,7 @@ proptest! {
             .iter()
             .map(|&(t, d, spread)| {
                 let dev = 10f64.powf(d + offset.1);
-                MeasuredPoint { tau: 10f64.powf(t + offset.0), dev, dev_low: dev / (1.0 + spread), dev_high: dev * (1.0 + spread) }
+                MeasuredPoint { tau: 10f64.powf(t + offset.0), dev, dev_low: dev / (1.0 + spread), dev_high: dev * (1.0 + spread), bridged: false }
             })
             .collect();
         let fig = AllanFigure {

@@ -134,6 +134,7 @@ pub fn measured_points(fit: &FittedModel) -> Vec<MeasuredPoint> {
             dev: p.measured.sqrt(),
             dev_low: p.ci.0.max(0.0).sqrt(),
             dev_high: p.ci.1.sqrt(),
+            bridged: p.bridged,
         })
         .collect()
 }

@@ -19,6 +19,9 @@ pub struct MeasuredPoint {
     pub dev_low: f64,
     /// Upper end of the confidence interval of σ (same unit).
     pub dev_high: f64,
+    /// Measured across lost samples (`allan::oavar_rate_bridged`): drawn hollow.
+    #[serde(default)]
+    pub bridged: bool,
 }
 
 /// One term of a noise model (e.g. `white`) as a deviation curve σ_term(τ).
@@ -329,11 +332,10 @@ impl<'a> Panels<'a> {
             measured.iter().map(|p| (p.tau, p.dev)),
             MEASURED.stroke_width(1),
         ))?;
-        chart.draw_series(
-            measured
-                .iter()
-                .map(|p| Circle::new((p.tau, p.dev), 3, MEASURED.filled())),
-        )?;
+        chart.draw_series(measured.iter().map(|p| {
+            let style = if p.bridged { MEASURED.stroke_width(2) } else { MEASURED.filled() };
+            Circle::new((p.tau, p.dev), 3, style)
+        }))?;
 
         // --- z(τ) panel, on a symmetric log scale so |z| = 3 stays readable next to |z| = 100.
         let b = symlog(self.z_bound);
@@ -404,6 +406,9 @@ impl<'a> Panels<'a> {
             (LegendMark::Fill(BAND), "confidence interval".to_string()),
             (LegendMark::Line(BLACK, 3), "model total".to_string()),
         ];
+        if self.models.iter().any(|(_, _, measured)| measured.iter().any(|p| p.bridged)) {
+            entries.insert(1, (LegendMark::Hollow(MEASURED), "bridged over lost samples".to_string()));
+        }
         for name in &self.term_names {
             let zero = self.models.iter().all(|(_, m, _)| {
                 m.terms

@@ -518,6 +518,8 @@ enum LegendMark {
     Fill(RGBAColor),
     /// A dot with a line through it (measured points).
     Points(RGBColor),
+    /// A hollow dot (measured points bridged over lost samples).
+    Hollow(RGBColor),
 }
 
 /// Draws legend entries top-down in `area` (a strip beside the plots).
@@ -547,6 +549,9 @@ fn draw_legend<DB: DrawingBackend>(
             LegendMark::Points(c) => {
                 area.draw(&PathElement::new(vec![(x0, y), (x1, y)], c.stroke_width(1)))?;
                 area.draw(&Circle::new(((x0 + x1) / 2, y), 3, c.filled()))?;
+            }
+            LegendMark::Hollow(c) => {
+                area.draw(&Circle::new(((x0 + x1) / 2, y), 3, c.stroke_width(2)))?;
             }
         }
         area.draw(&Text::new(

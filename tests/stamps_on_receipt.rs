@@ -44,10 +44,10 @@ fn packets_and_jitter_are_laid_out_as_regular_stamps() {
         if jitter {
             println!("{} Hz {} jitter: tau0 {:+.3} %, {invalid} invalid of {}", s.rate, s.mix.name, (rec.tau0 / regular.tau0 - 1.0) * 100.0, rec.axes[0].len());
         }
-        // Packets: the same record bit for bit. Jitter: τ0 from jittered stamps is a little off,
-        // so over a long record a stamp now and then looks like a gap (measured: τ0 within
-        // 0.11 %, at most 3 invalid samples in 240 000).
-        if (jitter && (rec.tau0 / regular.tau0 - 1.0).abs() > 0.01) || (!jitter && rec.tau0 != regular.tau0) {
+        // Packets: the same record bit for bit. Jitter: τ0 from 100 jittered intervals is a
+        // little off (measured: up to 0.8 %; 2.3 % from their plain median), so over a long
+        // record a stamp now and then looks like a gap.
+        if (jitter && (rec.tau0 / regular.tau0 - 1.0).abs() > 0.015) || (!jitter && rec.tau0 != regular.tau0) {
             report.push(format!("tau0 {} vs {}", rec.tau0, regular.tau0));
         }
         if (jitter && invalid * 10_000 > rec.axes[0].len()) || (!jitter && rec.axes != regular.axes) {

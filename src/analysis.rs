@@ -222,35 +222,10 @@ impl Analysis {
             Err(e) => return axes.iter().map(|_| Err(e.clone())).collect(),
         };
         let plans = Plans::default();
-        let one = |axis: Axis| -> Result<Diagnosis, AnalysisError> {
+        on_threads(axes, threads, |&axis| {
             let input = rec.input(axis);
             Ok(diagnose_planned(&input, &models[axis.index()], REGISTRY, &opts, &plans)?)
-        };
-        let next = std::sync::atomic::AtomicUsize::new(0);
-        let mut done: Vec<(usize, Result<Diagnosis, AnalysisError>)> = std::thread::scope(|scope| {
-            let workers: Vec<_> = (0..threads.clamp(1, axes.len().max(1)))
-                .map(|_| {
-                    scope.spawn(|| {
-                        // Each thread takes the next axis not yet taken: a slow axis (a long
-                        // candidate search) does not hold up the others.
-                        let mut mine = Vec::new();
-                        loop {
-                            let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                            let Some(&axis) = axes.get(i) else {
-                                return mine;
-                            };
-                            mine.push((i, one(axis)));
-                        }
-                    })
-                })
-                .collect();
-            workers
-                .into_iter()
-                .flat_map(|w| w.join().expect("a diagnosis thread panicked"))
-                .collect()
-        });
-        done.sort_by_key(|(i, _)| *i);
-        done.into_iter().map(|(_, d)| d).collect()
+        })
     }
 
     fn recording(&mut self) -> Result<&crate::model::record::Recording, AnalysisError> {
@@ -259,6 +234,39 @@ impl Analysis {
         }
         self.record.recording().ok_or(AnalysisError::NoRecord)
     }
+}
+
+/// `f` of every item of `items` on up to `threads` threads, answers in the items' order.
+///
+/// Each thread takes the next item not yet taken, so that a slow one (a long candidate search, a
+/// long recording) does not hold up the others; the answers are those `f` gives one by one.
+///
+/// # Panics
+/// When `f` panics on some item.
+pub fn on_threads<T: Sync, R: Send>(items: &[T], threads: usize, f: impl Fn(&T) -> R + Sync) -> Vec<R> {
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let mut done: Vec<(usize, R)> = std::thread::scope(|scope| {
+        let workers: Vec<_> = (0..threads.clamp(1, items.len().max(1)))
+            .map(|_| {
+                scope.spawn(|| {
+                    let mut mine = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some(item) = items.get(i) else {
+                            return mine;
+                        };
+                        mine.push((i, f(item)));
+                    }
+                })
+            })
+            .collect();
+        workers
+            .into_iter()
+            .flat_map(|w| w.join().expect("a worker thread panicked"))
+            .collect()
+    });
+    done.sort_by_key(|(i, _)| *i);
+    done.into_iter().map(|(_, r)| r).collect()
 }
 
 /// Gives a diagnosis's memory back when it ends: every buffer of 128 kB or more gets a mapping of

@@ -1,5 +1,6 @@
 //! `fdavar diagnose BAG [--model SPEC] [--topic T] [--axis A]... [--json] [--out DIR] [--mcap OUT]`: which
-//! physical effect the noise model misses, per axis, best first.
+//! physical effect the noise model misses, per axis, best first. Several recordings (or a
+//! directory of them): one summary table ([`crate::fleet`]).
 
 use crate::fit::{load, outcome, print_json, title, write_files, write_fit, Common, ResultsOut, FAILING_FIT_ERROR};
 use crate::Outcome;
@@ -20,16 +21,27 @@ use std::path::PathBuf;
 /// sentence of physics. A model that already explains the data gets no suggestion.
 /// A failing model (fit_error > 2) is the finding: a warning, exit 0 (exit 3 with --strict);
 /// samples left out (gaps, bad stamps, NaN/Inf) exit 3.
+///
+/// Several recordings (a fleet of robots' bags: `fdavar diagnose a.mcap b.mcap …`, or a directory
+/// whose subdirectories and files are bags): each diagnosed as alone, --jobs at a time, and one
+/// table of every axis (model, fit_error, the best suggestion); --json prints
+/// {"recordings": [{"bag", "axes"}, …]}. An unreadable recording is a row with its error, and the
+/// exit is 1 once the others are done.
 #[derive(Debug, clap::Args, PartialEq)]
 pub struct Args {
-    /// rosbag2 recording: a bag directory, a .mcap or a .db3.
-    pub bag: PathBuf,
+    /// rosbag2 recording(s): bag directories, .mcap or .db3 files, or directories of them.
+    #[arg(required = true, num_args = 1.., value_name = "BAG")]
+    pub bags: Vec<PathBuf>,
     /// Model to start from: comma-separated effect ids or aliases for every axis, or AXIS=SPEC for
     /// one axis (repeatable; later values win). Default N,B,K.
     #[arg(long, default_value = ModelSpec::DEFAULT, value_parser = crate::model_spec_arg)]
     pub model: Vec<String>,
     #[command(flatten)]
     pub common: Common,
+    /// Threads (default: the number of CPUs), at least 1: with several recordings, recordings in
+    /// parallel (each one's record in memory at once); with one, its axes.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    pub jobs: Option<u16>,
 }
 
 /// The diagnosis of each axis of `axes`, on up to `jobs` threads (the same answers as one by one).
@@ -47,9 +59,14 @@ pub fn write_diagnosis(out: &mut dyn std::io::Write, d: &Diagnosis) -> std::io::
 }
 
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
+    let jobs = crate::jobs(args.jobs.map(usize::from));
+    let bags = crate::fleet::recordings(&args.bags)?;
+    let [bag] = &bags[..] else {
+        return crate::fleet::run(args, &bags, jobs);
+    };
     let mut results = ResultsOut::create(&args.common)?;
-    let mut analysis = load(&args.bag, &args.model, args.common.selection.topic.as_deref(), args.common.first, results.as_mut())?;
-    let diagnoses = diagnose_all(&mut analysis, &args.common.selection.axes(), crate::jobs(None))?;
+    let mut analysis = load(bag, &args.model, args.common.selection.topic.as_deref(), args.common.first, results.as_mut())?;
+    let diagnoses = diagnose_all(&mut analysis, &args.common.selection.axes(), jobs)?;
     if let Some(results) = results {
         let (messages, until_s) = (analysis.messages(), analysis.duration_s().unwrap_or(0.0));
         let answers = diagnoses.iter().map(|d| (d.fit.axis, WholeRun::from_diagnosis(d, messages, until_s)));
@@ -66,9 +83,9 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             write_diagnosis(&mut out, d).context("writing output")?;
         }
     }
-    write_files(&args.common, &args.bag, diagnoses.iter().map(|d| &d.fit))?;
+    write_files(&args.common, bag, diagnoses.iter().map(|d| &d.fit))?;
     if let Some(dir) = &args.common.out {
-        let name = title(&args.bag);
+        let name = title(bag);
         for d in &diagnoses {
             let axis = d.fit.axis;
             if let (Some(s), Some(after)) = (d.suggestions.first(), d.after.first()) {

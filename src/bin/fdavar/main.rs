@@ -10,6 +10,7 @@ mod davar;
 mod diagnose;
 mod export;
 mod fit;
+mod fleet;
 mod info;
 #[cfg(feature = "ros")]
 mod play;

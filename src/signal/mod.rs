@@ -275,10 +275,8 @@ pub fn backwards_run(run: (u32, Option<i64>), stamp_ns: i64) -> (u32, Option<i64
 #[derive(Debug, Clone)]
 pub struct StampCheck {
     period_ns: f64,
-    last_ns: Option<i64>,
-    /// The last stamp that fell on its own slot of the grid, and the samples placed after it
-    /// (see [`StampCheck::check`]).
-    on_time: Option<(i64, u64)>,
+    /// The last accepted stamp and the grid's reference (see [`StampCheck::check`]).
+    last: Option<Accepted>,
     /// Backwards stamps in a row since the last accepted one, each later than the one before, and
     /// the last of them.
     backwards_run: (u32, Option<i64>),
@@ -287,6 +285,22 @@ pub struct StampCheck {
     /// Whether the last full rate window was off the nominal rate.
     off_rate: bool,
     counts: Irregularities,
+}
+
+/// The last stamp [`StampCheck`] accepted, and the grid's reference: the last stamp that fell on
+/// its own slot, with the samples placed after it.
+#[derive(Debug, Clone, Copy)]
+struct Accepted {
+    stamp_ns: i64,
+    reference_ns: i64,
+    since: u64,
+}
+
+impl Accepted {
+    /// A stamp on its own slot: the grid's new reference.
+    fn on_time(stamp_ns: i64) -> Accepted {
+        Accepted { stamp_ns, reference_ns: stamp_ns, since: 0 }
+    }
 }
 
 /// Most samples in a row that may come early (a packet of messages stamped on receipt) before the
@@ -298,8 +312,7 @@ impl StampCheck {
     pub fn new(period_s: f64) -> Self {
         StampCheck {
             period_ns: period_s * 1e9,
-            last_ns: None,
-            on_time: None,
+            last: None,
             backwards_run: (0, None),
             rate_window: (0, 0.0),
             off_rate: false,
@@ -338,9 +351,8 @@ impl StampCheck {
     /// With every stamp on its own slot (regular stamps, jitter below half a period) the
     /// reference is the previous stamp, and the classes are those of the previous stamp's rule.
     pub fn check(&mut self, stamp_ns: i64) -> StampClass {
-        let Some(last) = self.last_ns else {
-            self.last_ns = Some(stamp_ns);
-            self.on_time = Some((stamp_ns, 0));
+        let Some(Accepted { stamp_ns: last, reference_ns: reference, since }) = self.last else {
+            self.last = Some(Accepted::on_time(stamp_ns));
             return StampClass::Next;
         };
         let class = match stamp_ns.cmp(&last) {
@@ -356,7 +368,6 @@ impl StampCheck {
                 }
             }
             std::cmp::Ordering::Greater => {
-                let (reference, since) = self.on_time.unwrap_or((last, 0));
                 let expected = since + 1;
                 let dt = (stamp_ns - reference) as f64;
                 if dt > (expected as f64 + 0.5) * self.period_ns {
@@ -385,16 +396,14 @@ impl StampCheck {
         // it came early (a message of a packet) after one that was on time.
         if !matches!(class, StampClass::Duplicate | StampClass::Backwards) {
             self.backwards_run = (0, None);
-            self.last_ns = Some(stamp_ns);
-            self.on_time = match (class, self.on_time) {
-                (StampClass::Next, Some((reference, since)))
-                    if since < MAX_EARLY_RUN
-                        && ((stamp_ns - reference) as f64) < (since as f64 + 0.5) * self.period_ns =>
-                {
-                    Some((reference, since + 1))
-                }
-                _ => Some((stamp_ns, 0)),
-            };
+            let early = matches!(class, StampClass::Next)
+                && since < MAX_EARLY_RUN
+                && ((stamp_ns - reference) as f64) < (since as f64 + 0.5) * self.period_ns;
+            self.last = Some(if early {
+                Accepted { stamp_ns, reference_ns: reference, since: since + 1 }
+            } else {
+                Accepted::on_time(stamp_ns)
+            });
         }
         class
     }

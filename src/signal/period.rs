@@ -48,21 +48,23 @@ fn period_of(intervals: &mut [i64]) -> Option<f64> {
     } else {
         Vec::new()
     };
+    // The spans are taken above, before this sorts the intervals.
     let single = median_ns(intervals)?;
-    let per_periods: Vec<i64> = spans
-        .iter()
-        .map(|&span| {
-            let periods = (span as f64 * 1e-9 / single).round().max(1.0);
-            (span as f64 / periods).round() as i64
-        })
-        .collect();
     let Some(per_interval) = median_ns(&mut spans).map(|s| s / PACKET_SPAN as f64) else {
         return Some(single);
     };
     if single < 0.5 * per_interval {
         return Some(per_interval);
     }
-    let refined = median_ns(&mut per_periods.clone())?;
+    // Each span over its whole number of periods (order does not matter to a median).
+    let mut per_periods: Vec<i64> = spans
+        .iter()
+        .map(|&span| {
+            let periods = (span as f64 * 1e-9 / single).round().max(1.0);
+            (span as f64 / periods).round() as i64
+        })
+        .collect();
+    let refined = median_ns(&mut per_periods)?;
     Some(if (refined / single - 1.0).abs() > JITTER_AGREEMENT { refined } else { single })
 }
 

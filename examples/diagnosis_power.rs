@@ -45,8 +45,15 @@ const NULL_GRID: &[(f64, f64)] = &[
 /// Rates and lengths of the power curves.
 const POWER_GRID: &[(f64, f64)] = &[(100.0, 20.0), (200.0, 20.0), (400.0, 20.0), (100.0, 60.0)];
 
-/// Strengths per scale: AVAR peak ratio, σ of the test.
-const LADDER: [&[f64]; 2] = [&[0.5, 1.0, 2.0, 4.0, 8.0, 16.0], &[4.0, 8.0, 12.0, 16.0, 24.0]];
+/// Strengths of a scale: AVAR peak ratio, σ of the test, AVAR deficit.
+fn ladder(scale: Scale) -> &'static [f64] {
+    match scale {
+        Scale::AvarPeak => &[0.5, 1.0, 2.0, 4.0, 8.0, 16.0],
+        Scale::TestSigma => &[4.0, 8.0, 12.0, 16.0, 24.0],
+        // From 0.12: a smaller deficit needs a cut-off above twice the rate (the simulator's bound).
+        Scale::AvarDeficit => &[0.12, 0.16, 0.2, 0.3, 0.4, 0.5],
+    }
+}
 
 fn null(recordings: usize, seed: u64) {
     let nbk = ModelSpec::parse_in("N,B,K", REGISTRY).unwrap();
@@ -99,16 +106,19 @@ fn power(per_point: usize, seed: u64, png: Option<&str>, only: Option<&str>) {
     println!("| effect | strength | detected | parameters within tolerance (of detected) | named instead |");
     println!("|---|---|---|---|---|");
     for family in families().into_iter().filter(|f| only.is_none_or(|o| o.split(',').any(|n| n == f.name))) {
-        let ladder = LADDER[usize::from(family.scale == Scale::TestSigma)];
         let mut curve = Vec::new();
-        for &strength in ladder {
+        for &strength in ladder(family.scale) {
             let out = power_point(&family, strength, &set, 2);
             let detected = out.iter().filter(|o| o.detected).count();
             let ok = out.iter().filter(|o| o.params_ok).count();
             let mut instead: Vec<String> = out.iter().filter_map(|o| o.instead.clone()).collect();
             instead.sort();
             instead.dedup();
-            let unit = if family.scale == Scale::AvarPeak { "× base AVAR" } else { "σ" };
+            let unit = match family.scale {
+                Scale::AvarPeak => "× base AVAR",
+                Scale::TestSigma => "σ",
+                Scale::AvarDeficit => "× base AVAR below N²/τ",
+            };
             println!(
                 "| {} | {strength} {unit} | {detected}/{} | {ok}/{detected} | {} |",
                 family.name,
@@ -127,15 +137,16 @@ fn power(per_point: usize, seed: u64, png: Option<&str>, only: Option<&str>) {
 /// Detection rate vs strength: spectral effects left (AVAR peak ratio, log axis), time-domain
 /// right (σ).
 fn draw(path: &str, curves: &[Curve]) -> Result<(), Box<dyn std::error::Error>> {
+    fdavar::report::figure::ensure_font()?;
     let root = BitMapBackend::new(path, (1200, 520)).into_drawing_area();
     root.fill(&WHITE)?;
     let (left, right) = root.split_horizontally(600);
     for (area, scale) in [(left, Scale::AvarPeak), (right, Scale::TestSigma)] {
         let log = scale == Scale::AvarPeak;
         let (title, x_label, range) = if log {
-            ("Spectral effects", "AVAR peak ratio (effect / base N,B,K), log", (-1.1f64, 0.4f64))
+            ("Spectral effects", "AVAR peak ratio (effect / base N,B,K; bandwidth: deficit), log", (-1.6f64, 1.3f64))
         } else {
-            ("Time-domain effects", "strength: σ of the test under the base noise", (2.5, 8.5))
+            ("Time-domain effects", "strength: σ of the test under the base noise", (2.0, 26.0))
         };
         let mut chart = ChartBuilder::on(&area)
             .caption(title, ("sans-serif", 22))
@@ -150,7 +161,8 @@ fn draw(path: &str, curves: &[Curve]) -> Result<(), Box<dyn std::error::Error>> 
             .y_desc("hidden effect named first")
             .x_label_formatter(&format)
             .draw()?;
-        let mine: Vec<_> = curves.iter().filter(|c| c.1 == scale).collect();
+        // The deficit of a low-pass is an AVAR ratio too: drawn with the spectral effects.
+        let mine: Vec<_> = curves.iter().filter(|c| (c.1 == Scale::TestSigma) == (scale == Scale::TestSigma)).collect();
         for (i, (name, _, pts)) in mine.iter().enumerate() {
             let color = Palette99::pick(i).to_rgba();
             let pts: Vec<(f64, f64)> = pts.iter().map(|&(x, y)| (if log { x.log10() } else { x }, y)).collect();

@@ -15,7 +15,7 @@ use fdavar::model::effects::REGISTRY;
 use fdavar::model::{diagnose, fit, FitOptions, ModelSpec};
 use fdavar::signal::Axis;
 use fdavar::sim::LostMessages;
-use power_common::{clean_losing, families, par_map, record_losing, run_losing, settings, spec_yaml, Scale};
+use power_common::{clean_losing, families, par_map, record_losing, record_within, run_losing, settings, spec_yaml, Scale};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -106,19 +106,10 @@ fn time_domain_effects_are_found_through_lost_messages() {
 /// halved three times by a smaller cap, as a day is by the default one.
 #[test]
 fn a_halved_record_that_lost_messages_keeps_its_long_tau() {
-    use fdavar::model::record::RecordBuilder;
     let nbk = ModelSpec::parse_in("N,B,K", REGISTRY).unwrap();
     let loss = LostMessages { probability: 0.01, every_s: None, length_s: 0.0 };
     for s in settings(4, &GRID[..1], 9300) {
-        let mut spec = fdavar::sim::SimSpec::from_yaml(&spec_yaml(&s, &Axis::ALL, &[], &[])).unwrap();
-        spec.lost_messages = Some(loss);
-        let sim = fdavar::sim::simulate(&spec).unwrap();
-        let mut builder = RecordBuilder::new(None, 1 << 16);
-        for m in &sim.imu {
-            builder.push(m);
-        }
-        builder.finish();
-        let rec = builder.recording().unwrap().clone();
+        let rec = record_within(&spec_yaml(&s, &Axis::ALL, &[], &[]), Some(loss), 1 << 16);
         assert_eq!(rec.tau0, 0.08, "three halvings");
         for axis in Axis::ALL {
             let d = diagnose(&rec.input(axis), &nbk, REGISTRY, &FitOptions::default()).unwrap();

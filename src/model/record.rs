@@ -67,7 +67,20 @@ impl Recording {
         imu: &[ImuSample],
         temps: &[TemperatureSample],
     ) -> Result<Self, RecordError> {
-        let mut builder = RecordBuilder::new(None, RecordBuilder::DEFAULT_MAX_SAMPLES);
+        Self::from_samples_within(imu, temps, RecordBuilder::DEFAULT_MAX_SAMPLES)
+    }
+
+    /// [`Recording::from_samples`] halving the record (blocks of 2, 4, …) whenever it would hold
+    /// more than `max_samples` per axis, as a long run is by the default cap.
+    ///
+    /// # Errors
+    /// As [`Recording::from_samples`].
+    pub fn from_samples_within(
+        imu: &[ImuSample],
+        temps: &[TemperatureSample],
+        max_samples: usize,
+    ) -> Result<Self, RecordError> {
+        let mut builder = RecordBuilder::new(None, max_samples);
         for s in imu {
             builder.push(s);
         }

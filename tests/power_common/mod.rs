@@ -6,6 +6,8 @@
 //! (`Recording::from_samples`); the diagnosis never sees the truth. Base noise mixes are those of
 //! common MEMS IMUs (`MIXES`); a hidden effect's strength is in units of that base noise:
 //! - spectral effects: the AVAR peak ratio, max over τ ∈ [τ0, T/3] of σ²_effect(τ)/σ²_base(τ);
+//! - a sensor's low-pass (`bandwidth`, which replaces white noise rather than adding to it): the
+//!   AVAR deficit, max over τ of (N²/τ − σ²_bandwidth(τ))/σ²_base(τ), about 3/(4π·f_c·τ0) at τ0;
 //! - time-domain effects: the σ of the diagnosis's own test under the base noise (a step: its size
 //!   over √(2σ²_A(W)) at the scan's window; a regression: the coefficient over its GLS σ; a burst:
 //!   z with z² = n·[ln(φf² + 1 − φ) − φ·ln f²]/κ, twice the expected effective likelihood ratio of
@@ -16,8 +18,8 @@
 #![allow(dead_code)]
 
 use fdavar::model::effects::{
-    BiasStep, Effect, Evidence, GSensitivity, GaussMarkov, NoiseBurst, Quantization, Ramp, Sinusoid,
-    Temperature, REGISTRY,
+    Bandwidth, BiasStep, Effect, Evidence, GSensitivity, GaussMarkov, NoiseBurst, Quantization, Ramp, Sinusoid,
+    Temperature, Vibration, REGISTRY,
 };
 use fdavar::model::measure::NoiseClass;
 use fdavar::model::record::Recording;
@@ -116,7 +118,10 @@ pub fn spec_yaml(s: &Setting, axes: &[Axis], extra: &[(Axis, &dyn Effect)], moti
     y.push_str("axes:\n");
     for &axis in axes {
         let [n, b, k] = if axis.is_gyro() { s.mix.gyro } else { s.mix.accel };
-        write!(y, "  {}: {{ N: {{ n: {n:e} }}, B: {{ b: {b:e} }}, K: {{ k: {k:e} }}", axis.name()).unwrap();
+        // A sensor's low-pass filters its white noise: the axis's N is the effect's n.
+        let filtered = extra.iter().any(|(a, e)| *a == axis && e.kind().id() == Bandwidth::new(1.0, 1.0).unwrap().kind().id());
+        let white = if filtered { String::new() } else { format!("N: {{ n: {n:e} }}, ") };
+        write!(y, "  {}: {{ {white}B: {{ b: {b:e} }}, K: {{ k: {k:e} }}", axis.name()).unwrap();
         for (a, e) in extra {
             if *a == axis {
                 write!(y, ", {}", effect_yaml(*e)).unwrap();
@@ -135,10 +140,15 @@ pub fn record(yaml: &str) -> Recording {
 /// [`record`] of the spec with `loss` (the simulator's `lost_messages:`): the layout marks each
 /// missing sample invalid, as it does for a bag.
 pub fn record_losing(yaml: &str, loss: Option<LostMessages>) -> Recording {
+    record_within(yaml, loss, fdavar::model::record::RecordBuilder::DEFAULT_MAX_SAMPLES)
+}
+
+/// [`record_losing`] halved whenever the record would hold more than `max_samples` per axis.
+pub fn record_within(yaml: &str, loss: Option<LostMessages>, max_samples: usize) -> Recording {
     let mut spec = fdavar::sim::SimSpec::from_yaml(yaml).unwrap_or_else(|e| panic!("{e}\n{yaml}"));
     spec.lost_messages = loss;
     let sim = fdavar::sim::simulate(&spec).unwrap_or_else(|e| panic!("{e}\n{yaml}"));
-    Recording::from_samples(&sim.imu, &sim.temperature).unwrap()
+    Recording::from_samples_within(&sim.imu, &sim.temperature, max_samples).unwrap()
 }
 
 /// The base noise of `axis` under the setting's mix, exact for the three power laws.
@@ -173,6 +183,8 @@ pub enum Scale {
     AvarPeak,
     /// σ of the diagnosis's test (time-domain effects).
     TestSigma,
+    /// AVAR deficit ratio (a low-pass, below the white noise it replaces).
+    AvarDeficit,
 }
 
 /// A hidden effect on one axis, with the motion it needs.
@@ -184,6 +196,9 @@ pub struct Hidden {
     pub effect: Box<dyn Effect>,
     /// True motion of an accel axis (g-sensitivity's driver).
     pub motion: Option<(Axis, Box<dyn Effect>)>,
+    /// An effect on the same axis that the starting model already holds (the first line, beside
+    /// which `vibration` is weighed): the diagnosis starts from N,B,K and it.
+    pub beside: Option<Box<dyn Effect>>,
 }
 
 /// One effect family of the power curves: a name (the effect's id), how its strength is counted,
@@ -218,13 +233,58 @@ fn at_peak(s: &Setting, axis: Axis, strength: f64, build: impl Fn(f64) -> Box<dy
 fn sinusoid(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
     let axis = any_axis(rng);
     let f = [0.02, 0.1, 0.5, 2.0][rng.random_range(0..4)];
-    Hidden { axis, effect: at_peak(s, axis, strength, |a| Box::new(Sinusoid::new(a, f).unwrap())), motion: None }
+    Hidden { axis, effect: at_peak(s, axis, strength, |a| Box::new(Sinusoid::new(a, f).unwrap())), motion: None, beside: None }
+}
+
+/// A second line (`vibration`) at `strength` beside a first, 32× the base AVAR at its peak, which
+/// the starting model's `sinusoid` takes; 3.7 or 7.3 times its frequency (not a harmonic).
+fn vibration(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
+    let axis = any_axis(rng);
+    let f = [0.05, 0.2, 1.0][rng.random_range(0..3)];
+    let ratio = [3.7, 7.3][rng.random_range(0..2)];
+    Hidden {
+        axis,
+        effect: at_peak(s, axis, strength, |a| Box::new(Vibration::new(a, ratio * f).unwrap())),
+        motion: None,
+        beside: Some(at_peak(s, axis, 32.0, |a| Box::new(Sinusoid::new(a, f).unwrap()))),
+    }
 }
 
 fn gauss_markov(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
     let axis = any_axis(rng);
     let t = [0.5, 2.0, 10.0][rng.random_range(0..3)];
-    Hidden { axis, effect: at_peak(s, axis, strength, |a| Box::new(GaussMarkov::new(a, t).unwrap())), motion: None }
+    Hidden { axis, effect: at_peak(s, axis, strength, |a| Box::new(GaussMarkov::new(a, t).unwrap())), motion: None, beside: None }
+}
+
+/// White noise of the mix's N through a first-order low-pass whose AVAR deficit is `strength`
+/// (cut-off by bisection: the deficit falls as f_c grows).
+fn bandwidth(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
+    let axis = any_axis(rng);
+    let n = if axis.is_gyro() { s.mix.gyro[0] } else { s.mix.accel[0] };
+    let effect = |fc: f64| Bandwidth::new(n, fc).unwrap();
+    let deficit = |fc: f64| avar_deficit_ratio(&effect(fc), s, &base_noise(s, axis));
+    let (mut lo, mut hi) = ((1e-3 * s.rate).ln(), (1e3 * s.rate).ln());
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if deficit(mid.exp()) > strength {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Hidden { axis, effect: Box::new(effect(hi.exp())), motion: None, beside: None }
+}
+
+/// Peak of (N²/τ − σ²_bandwidth(τ))/σ²_base(τ) over τ ∈ [τ0, T/3], ten τ per decade: how far
+/// below the white noise it replaces a low-pass puts the Allan variance.
+pub fn avar_deficit_ratio(e: &Bandwidth, s: &Setting, base: &NoiseSpectrum) -> f64 {
+    let n = e.params()[0].value;
+    let (lo, hi) = (1.0 / s.rate, s.seconds() / 3.0);
+    let steps = ((hi / lo).log10() * 10.0).ceil() as usize;
+    (0..=steps)
+        .map(|i| lo * (hi / lo).powf(i as f64 / steps as f64))
+        .map(|tau| (n * n / tau - e.avar(tau).unwrap_or(0.0)) / base.avar(tau))
+        .fold(0.0, f64::max)
 }
 
 fn ramp(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
@@ -232,12 +292,12 @@ fn ramp(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
     let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
     let zeros = vec![0.0; s.samples()];
     let sigma = trend(&zeros, &base_noise(s, axis)).map_or(f64::NAN, |r| r.sigma);
-    Hidden { axis, effect: Box::new(Ramp::new(sign * strength * sigma).unwrap()), motion: None }
+    Hidden { axis, effect: Box::new(Ramp::new(sign * strength * sigma).unwrap()), motion: None, beside: None }
 }
 
 fn quantization(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
     let axis = any_axis(rng);
-    Hidden { axis, effect: at_peak(s, axis, strength, |a| Box::new(Quantization::new(a).unwrap())), motion: None }
+    Hidden { axis, effect: at_peak(s, axis, strength, |a| Box::new(Quantization::new(a).unwrap())), motion: None, beside: None }
 }
 
 fn bias_step(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
@@ -247,7 +307,7 @@ fn bias_step(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
     let sigma = (2.0 * base.avar(w as f64 / s.rate)).sqrt();
     let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
     let time = s.seconds() * rng.random_range(0.25..0.75);
-    Hidden { axis, effect: Box::new(BiasStep::new(time, sign * strength * sigma).unwrap()), motion: None }
+    Hidden { axis, effect: Box::new(BiasStep::new(time, sign * strength * sigma).unwrap()), motion: None, beside: None }
 }
 
 fn noise_burst(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
@@ -267,7 +327,7 @@ fn noise_burst(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
     }
     let start = s.seconds() * rng.random_range(0.2..0.7);
     let end = start + phi * s.seconds();
-    Hidden { axis, effect: Box::new(NoiseBurst::new(start, end, hi).unwrap()), motion: None }
+    Hidden { axis, effect: Box::new(NoiseBurst::new(start, end, hi).unwrap()), motion: None, beside: None }
 }
 
 /// The GLS σ of a regression on `x` under `base`, as the diagnosis computes it.
@@ -283,7 +343,7 @@ fn temperature(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
     let x: Vec<f64> = (0..s.samples()).map(|i| profile.at(i as f64 / s.rate)).collect();
     let sigma = regression_sigma(&x, &base_noise(s, axis));
     let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
-    Hidden { axis, effect: Box::new(Temperature::new(sign * strength * sigma).unwrap()), motion: None }
+    Hidden { axis, effect: Box::new(Temperature::new(sign * strength * sigma).unwrap()), motion: None, beside: None }
 }
 
 fn g_sensitivity(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
@@ -300,6 +360,7 @@ fn g_sensitivity(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
         axis,
         effect: Box::new(GSensitivity::new(source as f64, sign * strength * sigma).unwrap()),
         motion: Some((Axis::ALL[3 + source], Box::new(motion))),
+        beside: None,
     }
 }
 
@@ -312,9 +373,11 @@ pub fn families() -> Vec<Family> {
         Family { name: id(&Ramp::new(1.0).unwrap()), scale: Scale::TestSigma, make: ramp, visible: 24.0 },
         Family { name: id(&Quantization::new(1.0).unwrap()), scale: Scale::AvarPeak, make: quantization, visible: 0.5 },
         Family { name: id(&BiasStep::new(1.0, 1.0).unwrap()), scale: Scale::TestSigma, make: bias_step, visible: 24.0 },
-        Family { name: id(&NoiseBurst::new(0.0, 1.0, 2.0).unwrap()), scale: Scale::TestSigma, make: noise_burst, visible: 12.0 },
+        Family { name: id(&NoiseBurst::new(0.0, 1.0, 2.0).unwrap()), scale: Scale::TestSigma, make: noise_burst, visible: 16.0 },
         Family { name: id(&Temperature::new(1.0).unwrap()), scale: Scale::TestSigma, make: temperature, visible: 16.0 },
         Family { name: id(&GSensitivity::new(0.0, 1.0).unwrap()), scale: Scale::TestSigma, make: g_sensitivity, visible: 24.0 },
+        Family { name: id(&Bandwidth::new(1.0, 1.0).unwrap()), scale: Scale::AvarDeficit, make: bandwidth, visible: 0.2 },
+        Family { name: id(&Vibration::new(1.0, 1.0).unwrap()), scale: Scale::AvarPeak, make: vibration, visible: 4.0 },
     ]
 }
 
@@ -332,7 +395,8 @@ pub struct Outcome {
     pub worst: f64,
 }
 
-/// Simulates `hidden` in the setting, diagnoses its axis with N,B,K and scores the outcome.
+/// Simulates `hidden` in the setting, diagnoses its axis with N,B,K (and the effect it is beside)
+/// and scores the outcome.
 pub fn run(s: &Setting, hidden: &Hidden) -> Outcome {
     run_losing(s, hidden, None)
 }
@@ -344,15 +408,31 @@ pub fn run_losing(s: &Setting, hidden: &Hidden, loss: Option<LostMessages>) -> O
         axes.extend([Axis::AccelX, Axis::AccelY, Axis::AccelZ].into_iter().filter(|a| *a != hidden.axis));
     }
     let motion: Vec<(Axis, &dyn Effect)> = hidden.motion.iter().map(|(a, e)| (*a, e.as_ref())).collect();
-    let rec = record_losing(&spec_yaml(s, &axes, &[(hidden.axis, hidden.effect.as_ref())], &motion), loss);
-    let nbk = ModelSpec::parse_in("N,B,K", REGISTRY).unwrap();
-    let d = diagnose(&rec.input(hidden.axis), &nbk, REGISTRY, &FitOptions::default()).unwrap();
+    let mut extra = vec![(hidden.axis, hidden.effect.as_ref())];
+    extra.extend(hidden.beside.iter().map(|e| (hidden.axis, e.as_ref())));
+    let rec = record_losing(&spec_yaml(s, &axes, &extra, &motion), loss);
+    let start = hidden.beside.iter().fold("N,B,K".to_string(), |m, e| format!("{m},{}", e.kind().id()));
+    let start = ModelSpec::parse_in(&start, REGISTRY).unwrap();
+    let d = diagnose(&rec.input(hidden.axis), &start, REGISTRY, &FitOptions::default()).unwrap();
     let kind = hidden.effect.kind();
     let first = d.suggestions.first();
     let detected = first.is_some_and(|x| x.effect == kind.id());
+    // Two lines are interchangeable: when the starting model's term took the hidden line, the
+    // suggestion must be the line beside it (the one that term was meant for).
+    let mut truth = hidden.effect.params();
+    if let Some(beside) = &hidden.beside {
+        let other = beside.params();
+        let fitted: Vec<f64> = d.fit.term(beside.kind().id()).map_or(Vec::new(), |t| t.params.iter().map(|p| p.value).collect());
+        let distance = |ps: &[fdavar::model::effects::Param]| -> f64 {
+            ps.iter().zip(&fitted).map(|(p, v)| (v.abs() / p.value.abs()).ln().abs()).sum()
+        };
+        if !fitted.is_empty() && distance(&truth) < distance(&other) {
+            truth = other;
+        }
+    }
     let mut worst: f64 = 0.0;
     if let Some(sugg) = first.filter(|_| detected) {
-        for (truth, got) in hidden.effect.params().iter().zip(&sugg.params) {
+        for (truth, got) in truth.iter().zip(&sugg.params) {
             let err = match truth.spec.unit {
                 "axis" => {
                     if got.value == truth.value {

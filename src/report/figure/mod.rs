@@ -34,8 +34,13 @@ static FONT_BYTES: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf"
 /// The font family name the figures use; registered once with the bundled font.
 const FONT: &str = "sans-serif";
 
-/// Registers the bundled font with plotters, once per process.
-fn ensure_font() -> Result<(), ReportError> {
+/// Registers the bundled font with plotters as `sans-serif`, once per process: every figure
+/// calls it, and so can a program drawing its own plots (examples/diagnosis_power.rs), which
+/// would otherwise need a system font.
+///
+/// # Errors
+/// [`ReportError::Font`] when plotters rejects the font.
+pub fn ensure_font() -> Result<(), ReportError> {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
     let ok = *REGISTERED.get_or_init(|| {
         plotters::style::register_font(FONT, FontStyle::Normal, FONT_BYTES).is_ok()

@@ -211,9 +211,11 @@ fn in_process(hours: f64, period_s: f64) -> bool {
         Default::default(),
     )
     .unwrap();
+    // Rounds paced by recording time alone (no CPU budget), as the soak has always run them.
     let settings = MonitorSettings {
         diagnosis_period_s: period_s,
         stale_timeout_s: 10.0,
+        diagnosis_cpu_share: 1.0,
         ..MonitorSettings::default()
     };
     let mut monitor = Monitor::new(settings, Some(Box::new(engine)));
@@ -332,6 +334,10 @@ fn dds(hours: f64, period_s: f64, rate: f64, hostile: bool) -> bool {
             "qos.reliable:=true",
             "-p",
             &diagnosis,
+            // Rounds paced by recording time alone (no CPU budget), so that the last forced
+            // round comes when the bench waits for it.
+            "-p",
+            "diagnosis_cpu_share:=1.0",
             "-p",
             "publish_rate_hz:=1.0",
             "-p",

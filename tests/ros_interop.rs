@@ -442,9 +442,11 @@ fn in_process_monitor(
     overrides[0] = gyro_x.map(|m| ModelSpec::parse(m).unwrap());
     let engine =
         AnalysisEngine::new(config, ModelSpec::parse("N,B,K").unwrap(), overrides).unwrap();
+    // Rounds paced by sample time alone (no CPU budget): the samples come faster than real time.
     let settings = MonitorSettings {
         diagnosis_period_s,
         stale_timeout_s: 10.0,
+        diagnosis_cpu_share: 1.0,
         ..MonitorSettings::default()
     };
     Monitor::new(settings, Some(Box::new(engine)))
@@ -539,6 +541,9 @@ fn a_played_recording_with_a_hidden_sinusoid_gets_sinusoid_suggested_over_dds() 
             "publish_rate_hz:=10.0",
             "-p",
             "diagnosis_period_s:=1.0",
+            // Every round right after the last (no CPU budget): the checks wait one round.
+            "-p",
+            "diagnosis_cpu_share:=1.0",
             "-p",
             "stale_timeout_s:=30.0",
         ],
@@ -645,6 +650,9 @@ fn the_temperature_topic_from_rclpy_gives_a_live_coefficient_over_dds() {
             "stale_timeout_s:=30.0",
             "-p",
             "diagnosis_period_s:=1.0",
+            // Every round right after the last (no CPU budget): the checks wait one round.
+            "-p",
+            "diagnosis_cpu_share:=1.0",
             "-p",
             "model.gyro_x:=N,B,K,temperature",
         ],
@@ -1503,6 +1511,9 @@ fn replay_and_compare(bag: &Path, messages: u64, domain: u16) -> serde_json::Val
             "publish_rate_hz:=10.0",
             "-p",
             "diagnosis_period_s:=1.0",
+            // Every round right after the last (no CPU budget): the checks wait one round.
+            "-p",
+            "diagnosis_cpu_share:=1.0",
             "-p",
             "stale_timeout_s:=600.0",
         ],

@@ -152,6 +152,10 @@ pub struct MonitorSettings {
     pub fit_error_warn: f64,
     /// Seconds of node time between two diagnoses of each axis (0: no diagnosis).
     pub diagnosis_period_s: f64,
+    /// The largest share of one core the diagnosis may take, averaged over a round and the wait
+    /// after it: a round that took C seconds starts the next no sooner than C/share seconds (wall
+    /// clock) after its own start. 1: only `diagnosis_period_s` paces the rounds.
+    pub diagnosis_cpu_share: f64,
 }
 
 impl Default for MonitorSettings {
@@ -160,6 +164,7 @@ impl Default for MonitorSettings {
             stale_timeout_s: 1.0,
             fit_error_warn: 3.0,
             diagnosis_period_s: 10.0,
+            diagnosis_cpu_share: 0.05,
         }
     }
 }
@@ -202,6 +207,11 @@ pub struct Monitor {
     last_diagnosis_ns: Option<i64>,
     /// Axes of the current round still to diagnose (one per publication).
     diagnosis_due: Vec<Axis>,
+    /// When the current round started (wall clock) and what its diagnoses cost so far, s.
+    round: Option<(std::time::Instant, f64)>,
+    /// The same of the last round completed: with [`MonitorSettings::diagnosis_cpu_share`], when
+    /// the next may start.
+    last_round: Option<(std::time::Instant, f64)>,
     /// The counters at the last publication (the dropped share is of what came since).
     reported: Counters,
     /// Why the engine stopped: the message of the panic it raised. From then on every axis
@@ -235,6 +245,8 @@ impl Monitor {
             diagnosis_ms: [None; 6],
             last_diagnosis_ns: None,
             diagnosis_due: Vec::new(),
+            round: None,
+            last_round: None,
             reported: Counters::default(),
             engine_failure: None,
         }
@@ -302,9 +314,11 @@ impl Monitor {
             None => return Err("no F-DAVAR engine in this build".to_string()),
         }
         if new_model {
-            // The published fit is the old model's: diagnose the new one at once (a new round).
+            // The published fit is the old model's: diagnose the new one at once (a new round,
+            // whatever the budget: the user asked for it).
             self.last_diagnosis_ns = None;
             self.diagnosis_due.clear();
+            self.last_round = None;
         }
         Ok(())
     }
@@ -312,6 +326,13 @@ impl Monitor {
     /// Diagnoses the next axis due, if any: a round of all six axes starts every
     /// `diagnosis_period_s` of node time, one axis per call, so that a publication never waits
     /// for more than one axis's diagnosis (the samples queue meanwhile).
+    ///
+    /// Why a CPU budget besides the period: a diagnosis costs in proportion to the record, up to
+    /// its cap of 2²¹ values per axis (about 1.2 s per axis there, measured: `fdavar diagnose
+    /// --axis gyro_x --jobs 1` of 2·10⁶ samples); six of them every 10 s would take 70 % of a
+    /// core once the record is full (after 5.8 h at 100 Hz, 17 min at 2 kHz). So a round that
+    /// cost C seconds lets the next start no sooner than C/`diagnosis_cpu_share` after its own
+    /// start: the period while the record is short, longer as it grows.
     fn diagnose_next(&mut self, now_ns: i64) {
         let period = self.settings.diagnosis_period_s;
         if self.engine.is_none() || period <= 0.0 {
@@ -321,11 +342,16 @@ impl Monitor {
         let due = self
             .last_diagnosis_ns
             .is_none_or(|t| now_ns < t || (now_ns - t) as f64 * 1e-9 >= period);
+        let share = self.settings.diagnosis_cpu_share;
+        let within_budget = self
+            .last_round
+            .is_none_or(|(started, spent)| started.elapsed().as_secs_f64() >= spent / share);
         // A round starts once some axis has a row: before that the run is too short to diagnose.
         let any_row = self.latest.iter().any(Option::is_some);
-        if due && any_row && self.diagnosis_due.is_empty() {
+        if due && within_budget && any_row && self.diagnosis_due.is_empty() {
             self.last_diagnosis_ns = Some(now_ns);
             self.diagnosis_due = Axis::ALL.iter().rev().copied().collect();
+            self.round = Some((std::time::Instant::now(), 0.0));
         }
         // Axes still without a row sit this round out.
         while let Some(axis) = self.diagnosis_due.pop() {
@@ -335,9 +361,16 @@ impl Monitor {
                 if let Some(Ok(answer)) = self.supervised(|e| e.diagnose(axis)) {
                     self.whole_run[axis.index()] = Some(answer);
                 }
-                self.diagnosis_ms[axis.index()] = Some(start.elapsed().as_secs_f64() * 1e3);
-                return;
+                let cost_s = start.elapsed().as_secs_f64();
+                self.diagnosis_ms[axis.index()] = Some(cost_s * 1e3);
+                if let Some((_, spent)) = self.round.as_mut() {
+                    *spent += cost_s;
+                }
+                break;
             }
+        }
+        if self.diagnosis_due.is_empty() && self.round.is_some() {
+            self.last_round = self.round.take();
         }
     }
 
@@ -1079,7 +1112,8 @@ mod tests {
     }
 
     /// Rows on every axis; a diagnosis that names `sinusoid` on gyro_x and counts its calls.
-    struct Diagnosing(std::sync::Arc<std::sync::Mutex<Vec<Axis>>>);
+    /// The second field is what each diagnosis costs (a sleep).
+    struct Diagnosing(std::sync::Arc<std::sync::Mutex<Vec<Axis>>>, std::time::Duration);
     impl RowEngine for Diagnosing {
         fn push(&mut self, s: &ImuSample) -> Vec<(Axis, AxisState)> {
             Axis::ALL
@@ -1100,6 +1134,7 @@ mod tests {
         }
         fn diagnose(&mut self, axis: Axis) -> Result<WholeRun, String> {
             self.0.lock().unwrap().push(axis);
+            std::thread::sleep(self.1);
             let suggestions = if axis == Axis::GyroX {
                 vec![Suggestion {
                     effect: "sinusoid".into(),
@@ -1125,7 +1160,7 @@ mod tests {
             stale_timeout_s: 100.0,
             ..MonitorSettings::default()
         };
-        let mut m = Monitor::new(settings, Some(Box::new(Diagnosing(calls.clone()))));
+        let mut m = Monitor::new(settings, Some(Box::new(Diagnosing(calls.clone(), std::time::Duration::ZERO))));
         let mut t = 0;
         let mut reports = Vec::new();
         // 10 s of samples at 100 Hz, a report every 0.1 s.
@@ -1154,5 +1189,44 @@ mod tests {
         let (a, states, _) = m.report(t);
         assert_eq!(level(&a, 0), Level::Ok as u8);
         assert!(states.iter().all(|s| s.suggestions.is_empty()));
+    }
+
+    #[test]
+    fn a_costly_round_delays_the_next_by_its_cost_over_the_cpu_share() {
+        use std::time::{Duration, Instant};
+        let calls = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+        let settings = MonitorSettings {
+            diagnosis_period_s: 0.001,
+            stale_timeout_s: 100.0,
+            diagnosis_cpu_share: 0.1,
+            ..MonitorSettings::default()
+        };
+        let engine = Diagnosing(calls.clone(), Duration::from_millis(10));
+        let mut m = Monitor::new(settings, Some(Box::new(engine)));
+        let mut t = 0;
+        // Reports as fast as they come, 10 ms of node time apart: the period never holds back.
+        let mut step = |m: &mut Monitor| {
+            t += 10 * MS;
+            m.push(sample(t, 0.0), "imu", t);
+            m.report(t);
+        };
+        let count = || calls.lock().unwrap().len();
+        while count() < 6 {
+            step(&mut m);
+        }
+        // The round cost at least 60 ms: at a 10 % share the next waits 0.6 s from its start.
+        let round_done = Instant::now();
+        while round_done.elapsed() < Duration::from_millis(300) {
+            step(&mut m);
+        }
+        assert_eq!(count(), 6);
+        // Share 1, live: the next round may start as soon as the last one's cost has passed.
+        m.set_settings(MonitorSettings { diagnosis_cpu_share: 1.0, ..settings });
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while count() < 12 && Instant::now() < deadline {
+            step(&mut m);
+        }
+        assert_eq!(count(), 12);
+        assert_eq!(&calls.lock().unwrap()[6..], &Axis::ALL);
     }
 }

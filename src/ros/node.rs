@@ -476,6 +476,7 @@ pub fn run(
     let settings = MonitorSettings {
         stale_timeout_s: config.double("stale_timeout_s"),
         diagnosis_period_s: config.double("diagnosis_period_s"),
+        diagnosis_cpu_share: config.double("diagnosis_cpu_share"),
         ..MonitorSettings::default()
     };
     let mut monitor = Monitor::new(settings, engine);
@@ -830,6 +831,10 @@ impl Analysis {
             }
             ("diagnosis_period_s", ParameterValue::Double(s)) => {
                 self.settings.diagnosis_period_s = *s;
+                self.monitor.set_settings(self.settings);
+            }
+            ("diagnosis_cpu_share", ParameterValue::Double(share)) => {
+                self.settings.diagnosis_cpu_share = *share;
                 self.monitor.set_settings(self.settings);
             }
             (name, ParameterValue::String(s)) if name == "model" || name.starts_with("model.") => {

@@ -23,7 +23,7 @@ use std::path::PathBuf;
 /// samples left out (gaps, bad stamps, NaN/Inf) exit 3.
 ///
 /// Several recordings (a fleet of robots' bags: `fdavar diagnose a.mcap b.mcap …`, or a directory
-/// whose subdirectories and files are bags): each diagnosed as alone, --jobs at a time, and one
+/// whose subdirectories are bag directories): each diagnosed as alone, --jobs at a time, and one
 /// table of every axis (model, fit_error, the best suggestion); --json prints
 /// {"recordings": [{"bag", "axes"}, …]}. An unreadable recording is a row with its error, and the
 /// exit is 1 once the others are done.

@@ -36,8 +36,9 @@ fn is_storage_file(path: &Path) -> bool {
 }
 
 /// The recordings `paths` name, in the order given: a directory of recordings ([`is_fleet`])
-/// stands for every bag directly inside it (bag directories, `.mcap` and `.db3` files), in name
-/// order; any other path is one recording.
+/// stands for every bag directory directly inside it, in name order; any other path is one
+/// recording. Loose `.mcap` / `.db3` files side by side are one split recording to rosbag2 (and
+/// to [`fdavar::bag::BagReader`]): as many recordings, they are given one by one (`dir/*.mcap`).
 ///
 /// # Errors
 /// A directory that cannot be listed, or one that holds no recording.
@@ -52,7 +53,7 @@ pub fn recordings(paths: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
         let mut inside = Vec::new();
         for entry in std::fs::read_dir(path).map_err(listing)? {
             let p = entry.map_err(listing)?.path();
-            if is_storage_file(&p) || (p.is_dir() && !is_fleet(&p).map_err(listing)?) {
+            if p.is_dir() && !is_fleet(&p).map_err(listing)? {
                 inside.push(p);
             }
         }

@@ -328,11 +328,12 @@ impl Monitor {
     /// for more than one axis's diagnosis (the samples queue meanwhile).
     ///
     /// Why a CPU budget besides the period: a diagnosis costs in proportion to the record, up to
-    /// its cap of 2²¹ values per axis (about 1.2 s per axis there, measured: `fdavar diagnose
-    /// --axis gyro_x --jobs 1` of 2·10⁶ samples); six of them every 10 s would take 70 % of a
-    /// core once the record is full (after 5.8 h at 100 Hz, 17 min at 2 kHz). So a round that
-    /// cost C seconds lets the next start no sooner than C/`diagnosis_cpu_share` after its own
-    /// start: the period while the record is short, longer as it grows.
+    /// its cap of 2²¹ values per axis (about 0.73 s per axis there, measured: `fdavar diagnose
+    /// --jobs 1` of 2·10⁶ samples, 5.2 s of CPU, 0.8 s of it reading the bag); six of them every
+    /// 10 s would take 45 % of a core once the record is full (after 5.8 h at 100 Hz, 17 min at
+    /// 2 kHz). So a round that cost C seconds lets the next start no sooner than
+    /// C/`diagnosis_cpu_share` after its own start: the period while the record is short, longer
+    /// as it grows.
     fn diagnose_next(&mut self, now_ns: i64) {
         let period = self.settings.diagnosis_period_s;
         if self.engine.is_none() || period <= 0.0 {

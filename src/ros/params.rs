@@ -184,7 +184,7 @@ pub static NODE_PARAMS: &[ParamSpec] = &[
         name: "diagnosis_cpu_share",
         doc: "Largest share of one core the whole-run diagnosis may take: a round of six axes \
               that took C seconds starts the next no sooner than C/share seconds after its own \
-              start (a diagnosis costs in proportion to the record: about 1.2 s per axis once it \
+              start (a diagnosis costs in proportion to the record: about 0.7 s per axis once it \
               holds 2^21 values). 1 = only diagnosis_period_s paces the rounds. (0, 1].",
         default: || ParameterValue::Double(0.05),
         validate: |v| positive_double(v, 1.0),

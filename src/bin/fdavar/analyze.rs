@@ -24,10 +24,12 @@ use std::path::PathBuf;
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::sync::Arc;
 
-/// Samples per chunk handed to the row workers (about 230 kB).
-const CHUNK: usize = 4096;
-/// Chunks queued per worker before the reader waits.
-const CHUNKS_IN_FLIGHT: usize = 8;
+/// Samples per chunk handed to the row workers (about 115 kB: below the 128 kB from which a
+/// buffer gets fresh pages of its own, `analysis::return_large_buffers_to_kernel`; a chunk of
+/// 4096 samples was 88 mappings, each faulted in, for an hour at 100 Hz).
+const CHUNK: usize = 2048;
+/// Chunks queued per worker before the reader waits (16 of 2048: the 32768 samples of 8 of 4096).
+const CHUNKS_IN_FLIGHT: usize = 16;
 
 /// Do the whole job on a recording: F-DAVAR rows and change events, model fit and diagnosis.
 ///

@@ -17,6 +17,7 @@ use crate::{Outcome, UsageError};
 use anyhow::Context;
 use fdavar::model::output::{AxisReport, Report};
 use fdavar::model::ModelSpec;
+use fdavar::davar::SharedIntervals;
 use fdavar::pipeline::{AxisEvent, Output, Pipeline, RowSummary, SigmaRefMode};
 use fdavar::signal::{Axis, ImuSample, Irregularities};
 use serde::Serialize;
@@ -128,9 +129,11 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let groups: Vec<Vec<Axis>> = (0..jobs.min(axes.len()))
         .map(|w| axes.iter().copied().skip(w).step_by(jobs).collect())
         .collect();
+    // One χ² interval cache for all workers: their axes meet the same (m, terms).
+    let intervals = SharedIntervals::default();
     let pipelines = groups
         .iter()
-        .map(|g| Pipeline::new(davar.clone(), g, None))
+        .map(|g| Pipeline::new(davar.clone(), g, None).map(|p| p.sharing_intervals(intervals.clone())))
         .collect::<Result<Vec<_>, _>>()
         .context("cannot start the DAVAR pipeline")?;
     let (analysis, diagnoses, rows) = std::thread::scope(|scope| -> anyhow::Result<_> {

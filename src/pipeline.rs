@@ -408,6 +408,17 @@ impl Pipeline {
         Ok(pipeline)
     }
 
+    /// This pipeline with its engines taking their χ² intervals from `intervals`, which other
+    /// pipelines may share.
+    ///
+    /// Why: the intervals depend on (m, terms) only, so pipelines that split one record's axes
+    /// between them (`fdavar analyze`, a worker each) meet the same pairs; shared, each pair's χ²
+    /// inversions are made once (the same numbers either way).
+    pub fn sharing_intervals(mut self, intervals: SharedIntervals) -> Self {
+        self.intervals = intervals;
+        self
+    }
+
     fn engine_for(&self, axis: Axis, tau0: f64) -> Result<DavarEngine, PipelineError> {
         let sigma_ref = match self.config.sigma_ref {
             SigmaRefMode::Record => SigmaRef::Value(

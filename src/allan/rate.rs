@@ -69,7 +69,7 @@ pub fn oavar_rate(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<AllanPoint>
 /// assert_eq!((p[0].point.terms, p[0].skipped), (5, 2));
 /// ```
 pub fn oavar_rate_counted(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<RatePoint> {
-    rate_points(rate, tau0, factors, false)
+    rate_points(rate, tau0, factors, false, &mut Vec::new())
 }
 
 /// Most a bridged half of a term may miss, as a fraction of its m samples.
@@ -114,11 +114,22 @@ pub const BRIDGE_MAX_MISSING: f64 = 0.02;
 /// assert!(bridged[1].bridged && bridged[1].point.terms > 2900);
 /// ```
 pub fn oavar_rate_bridged(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<RatePoint> {
-    rate_points(rate, tau0, factors, true)
+    oavar_rate_bridged_in(rate, tau0, factors, &mut Vec::new())
 }
 
-/// The points of [`oavar_rate_counted`] (`bridge` false) or [`oavar_rate_bridged`].
-fn rate_points(rate: &[f64], tau0: f64, factors: &[usize], bridge: bool) -> Vec<RatePoint> {
+/// [`oavar_rate_bridged`] building the phase in `phase` (its contents are replaced), so that
+/// measurements one after the other reuse one buffer.
+///
+/// Why: the fit measures the whole record and then each of its spans; a fresh buffer for each is
+/// fresh pages from the kernel, zeroed and faulted in, for every one of them (buffers of a
+/// series' size get mappings of their own: `analysis::return_large_buffers_to_kernel`).
+pub fn oavar_rate_bridged_in(rate: &[f64], tau0: f64, factors: &[usize], phase: &mut Vec<f64>) -> Vec<RatePoint> {
+    rate_points(rate, tau0, factors, true, phase)
+}
+
+/// The points of [`oavar_rate_counted`] (`bridge` false) or [`oavar_rate_bridged`], the phase
+/// built in `x`.
+fn rate_points(rate: &[f64], tau0: f64, factors: &[usize], bridge: bool, x: &mut Vec<f64>) -> Vec<RatePoint> {
     if !(tau0.is_finite() && tau0 > 0.0) {
         return Vec::new();
     }
@@ -127,17 +138,18 @@ fn rate_points(rate: &[f64], tau0: f64, factors: &[usize], bridge: bool) -> Vec<
     };
     // Built in place, without centred or valid-only copies of the record (a whole-run record
     // holds millions of samples): the same additions, in the same order, as [`super::naive::phase_from_rate`].
-    let phase_of = |values: &mut dyn Iterator<Item = f64>| {
-        let mut x = Vec::with_capacity(rate.len() + 1);
+    let phase_of = |values: &mut dyn Iterator<Item = f64>, x: &mut Vec<f64>| {
+        x.clear();
+        x.reserve(rate.len() + 1);
         let mut acc = 0.0;
         x.push(acc);
         for y in values {
             acc += tau0 * y;
             x.push(acc);
         }
-        x
     };
-    let x = phase_of(&mut rate.iter().map(|&v| if v.is_finite() { v - reference } else { 0.0 }));
+    phase_of(&mut rate.iter().map(|&v| if v.is_finite() { v - reference } else { 0.0 }), x);
+    let x: &[f64] = x;
     // bad[k] = number of invalid samples among rate[..k]; empty when none is (the common case:
     // a whole-run record holds millions of samples).
     let bad: Vec<usize> = if rate.iter().all(|v| v.is_finite()) {
@@ -152,22 +164,24 @@ fn rate_points(rate: &[f64], tau0: f64, factors: &[usize], bridge: bool) -> Vec<
     };
     // The phase of the valid samples joined: `x` itself when none is invalid.
     let joined = (!bad.is_empty()).then(|| {
-        phase_of(&mut rate.iter().filter(|v| v.is_finite()).map(|v| v - reference))
+        let mut joined = Vec::new();
+        phase_of(&mut rate.iter().filter(|v| v.is_finite()).map(|v| v - reference), &mut joined);
+        joined
     });
-    let compact_phase = joined.as_deref().unwrap_or(&x);
+    let compact_phase = joined.as_deref().unwrap_or(x);
     let shape = Estimator::Oadev.shape();
     let usable: Vec<usize> = factors
         .iter()
         .copied()
         .filter(|&m| m > 0 && x.len() > 2 * m)
         .collect();
-    let sums = second_difference_sums(&x, &bad, &usable);
+    let sums = second_difference_sums(x, &bad, &usable);
     usable
         .iter()
         .zip(sums)
         .map(|(&m, strict)| {
             let bridged = bridge && strict.terms < strict.skipped;
-            (m, if bridged { bridged_sums(&x, &bad, m) } else { strict }, bridged)
+            (m, if bridged { bridged_sums(x, &bad, m) } else { strict }, bridged)
         })
         .filter_map(|(m, Terms { sum, terms, skipped }, bridged)| {
             if terms == 0 {
@@ -461,6 +475,20 @@ mod tests {
             }
             // Holes 40–120 samples apart: some factor up to n/3 always needs the bridge.
             prop_assert!(k > 0 || factors.iter().all(|&m| 2 * m < every), "no bridged factor");
+        }
+    }
+
+    #[test]
+    fn a_reused_phase_buffer_gives_the_same_points() {
+        // One buffer for a long record, then for a shorter one with a hole: whatever it held,
+        // the points are those of a fresh buffer, bit for bit.
+        let long: Vec<f64> = (0..5000).map(|i| ((i * 7919) % 13) as f64 - 6.0).collect();
+        let mut short: Vec<f64> = long[..3000].iter().map(|v| v * 0.5 + 1.0).collect();
+        short[1234] = f64::NAN;
+        let factors = [1, 2, 5, 10, 100, 900];
+        let mut phase = vec![f64::NAN; 7];
+        for rate in [&long[..], &short[..], &long[..]] {
+            assert_eq!(oavar_rate_bridged_in(rate, 0.01, &factors, &mut phase), oavar_rate_bridged(rate, 0.01, &factors));
         }
     }
 

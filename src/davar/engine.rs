@@ -122,6 +122,11 @@ pub struct DavarEngine {
     /// second differences of the terms j ≥ base complete among the samples [base, k), i.e. with
     /// j + 2m ≤ k (position-major: see the module doc).
     terms: Vec<Prefix>,
+    /// Scratch of [`DavarEngine::row`], one value per factor: the window's sum of squared second
+    /// differences, their count, and the Allan variance.
+    sums: Vec<f64>,
+    counts: Vec<u64>,
+    avars: Vec<f64>,
     /// The pending analysis index and its window.
     t: u64,
     w: usize,
@@ -227,6 +232,9 @@ impl DavarEngine {
             sum2: vec![0.0; 2 * len],
             valid: vec![0; 2 * len],
             terms: vec![Prefix::default(); 2 * len * factors.len()],
+            sums: vec![0.0; factors.len()],
+            counts: vec![0; factors.len()],
+            avars: vec![0.0; factors.len()],
             t: (w / 2) as u64,
             w,
             excluded_total: 0,
@@ -428,27 +436,37 @@ impl DavarEngine {
             .spare
             .pop()
             .unwrap_or_else(|| Vec::with_capacity(self.factors.len()));
-        let mut excluded = 0usize;
         let (k, w) = (self.factors.len(), self.w);
-        // The K upper ends side by side (see the module doc); locals, so that the loop keeps its
-        // values in registers.
+        // The factors are ascending: those with 3m ≤ W are the first `used`.
+        let used = self.factors.partition_point(|&m| 3 * m <= w);
+        // First every factor's window sum, count and quotient, then the points: a loop without
+        // branches or calls lets the divisions of several factors overlap (they were the row's
+        // latency, one after the other); each quotient is the same operation on the same values.
         let (terms_at, upper) = (&self.terms, &self.terms[e * k..(e + 1) * k]);
-        let (memo, shared) = (&mut self.interval_of, &self.intervals);
-        for (i, (&m, scale)) in self.factors.iter().zip(&self.scales).enumerate() {
-            if 3 * m > w {
-                break;
-            }
+        let (sums, counts, avars) = (&mut self.sums[..used], &mut self.counts[..used], &mut self.avars[..used]);
+        for (i, &m) in self.factors[..used].iter().enumerate() {
             // The terms starting in [a, a + total) are those completed between the positions
             // e − total and e (the prefixes are stored where their latest term completed).
             let total = w - 2 * m + 1;
             let (first, last) = (terms_at[(e - total) * k + i], upper[i]);
-            let terms = (last.count - first.count) as usize;
-            excluded += total - terms;
+            counts[i] = last.count - first.count;
+            sums[i] = (last.sum - first.sum).max(0.0);
+        }
+        for ((avar, (&sum, &count)), scale) in avars.iter_mut().zip(sums.iter().zip(counts.iter())).zip(&self.scales) {
+            // Through i64: a count is far below 2⁵³, so the value is the same, and the
+            // conversion is one instruction (u64's is a sequence).
+            *avar = sum / (scale.two_m2 * count as i64 as f64); // 0/0 where count = 0: unused
+        }
+        let mut excluded = 0usize;
+        let (memo, shared) = (&mut self.interval_of, &self.intervals);
+        for (i, ((&m, scale), (&count, &avar))) in
+            self.factors.iter().zip(&self.scales).zip(counts.iter().zip(avars.iter())).enumerate()
+        {
+            let terms = count as usize;
+            excluded += w - 2 * m + 1 - terms;
             if terms == 0 {
                 continue;
             }
-            let sum = (last.sum - first.sum).max(0.0);
-            let avar = sum / (scale.two_m2 * terms as f64);
             let (edf, lo, hi) = memo.get(w, i, terms, || shared.factors(m, terms));
             points.push(AllanPoint {
                 m,

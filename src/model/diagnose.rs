@@ -198,7 +198,11 @@ pub fn diagnose_planned(
                                 .zip(x.values())
                                 .map(|(y, v)| if v.is_finite() { y - c * (v - mean) } else { *y })
                                 .collect();
-                            fit(&AxisInput { rate: &rest, ..*input }, &spectral_spec, registry, opts).ok()
+                            // Only the refit's spectral terms are read (the noise below): its
+                            // check on spans would be thrown away, so it is not made (the same
+                            // terms, and the same error if the fit fails).
+                            let whole_only = FitOptions { spans: 0, ..*opts };
+                            fit(&AxisInput { rate: &rest, ..*input }, &spectral_spec, registry, &whole_only).ok()
                         };
                         // `screen` exists only when `base_noise` does: the transform of
                         // `series` is reused, weighted by the refitted noise.

@@ -17,6 +17,7 @@ use crate::{Outcome, UsageError};
 use anyhow::Context;
 use fdavar::model::output::{AxisReport, Report};
 use fdavar::model::ModelSpec;
+use fdavar::davar::SharedIntervals;
 use fdavar::pipeline::{AxisEvent, Output, Pipeline, RowSummary, SigmaRefMode};
 use fdavar::signal::{Axis, ImuSample, Irregularities};
 use serde::Serialize;
@@ -24,10 +25,12 @@ use std::path::PathBuf;
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::sync::Arc;
 
-/// Samples per chunk handed to the row workers (about 230 kB).
-const CHUNK: usize = 4096;
-/// Chunks queued per worker before the reader waits.
-const CHUNKS_IN_FLIGHT: usize = 8;
+/// Samples per chunk handed to the row workers (about 115 kB: below the 128 kB from which a
+/// buffer gets fresh pages of its own, `analysis::return_large_buffers_to_kernel`; a chunk of
+/// 4096 samples was 88 mappings, each faulted in, for an hour at 100 Hz).
+const CHUNK: usize = 2048;
+/// Chunks queued per worker before the reader waits (16 of 2048: the 32768 samples of 8 of 4096).
+const CHUNKS_IN_FLIGHT: usize = 16;
 
 /// Do the whole job on a recording: F-DAVAR rows and change events, model fit and diagnosis.
 ///
@@ -126,9 +129,11 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let groups: Vec<Vec<Axis>> = (0..jobs.min(axes.len()))
         .map(|w| axes.iter().copied().skip(w).step_by(jobs).collect())
         .collect();
+    // One χ² interval cache for all workers: their axes meet the same (m, terms).
+    let intervals = SharedIntervals::default();
     let pipelines = groups
         .iter()
-        .map(|g| Pipeline::new(davar.clone(), g, None))
+        .map(|g| Pipeline::new(davar.clone(), g, None).map(|p| p.sharing_intervals(intervals.clone())))
         .collect::<Result<Vec<_>, _>>()
         .context("cannot start the DAVAR pipeline")?;
     let (analysis, diagnoses, rows) = std::thread::scope(|scope| -> anyhow::Result<_> {

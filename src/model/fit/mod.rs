@@ -52,7 +52,7 @@ pub use types::{
     AxisInput, Event, FitError, FitOptions, FitPoint, FittedModel, FittedTerm, ParamValue, Span,
 };
 
-use crate::allan::oavar_rate_bridged;
+use crate::allan::oavar_rate_bridged_in;
 use crate::allan::AllanPoint;
 use crate::model::effects::{unit_on_axis, Domain, EffectKind};
 use crate::model::measure::NoiseClass;
@@ -83,9 +83,10 @@ pub fn fit(
 }
 
 /// The Allan variance the fit reads: [`oavar_rate_bridged`], so that a record losing a message
-/// every few seconds keeps its long τ; with the factors that were bridged.
-fn measure(series: &[f64], tau0: f64, factors: &[usize]) -> (Vec<AllanPoint>, Vec<usize>) {
-    let points = oavar_rate_bridged(series, tau0, factors);
+/// every few seconds keeps its long τ; with the factors that were bridged. `phase` is scratch
+/// ([`oavar_rate_bridged_in`]).
+fn measure(series: &[f64], tau0: f64, factors: &[usize], phase: &mut Vec<f64>) -> (Vec<AllanPoint>, Vec<usize>) {
+    let points = oavar_rate_bridged_in(series, tau0, factors, phase);
     let bridged = points.iter().filter(|p| p.bridged).map(|p| p.point.m).collect();
     (points.into_iter().map(|p| p.point).collect(), bridged)
 }
@@ -103,7 +104,7 @@ fn noise_of(
         return None;
     }
     let max_m = ((series.len() as f64) * opts.max_m_fraction).floor() as usize;
-    let (points, _) = measure(series, tau0, &opts.grid.factors(max_m.max(1)));
+    let (points, _) = measure(series, tau0, &opts.grid.factors(max_m.max(1)), &mut Vec::new());
     let fit = fit_curve(&points, kinds, opts.weight_iterations).ok()?;
     let taus: Vec<f64> = fit.points.iter().map(|p| p.tau).collect();
     Some(NoiseSpectrum::from_curves(
@@ -207,14 +208,16 @@ pub fn prepare(
     }
     let max_m = ((series.len() as f64) * opts.max_m_fraction).floor() as usize;
     let factors = opts.grid.factors(max_m.max(1));
-    let (points, bridged) = measure(&series, input.tau0, &factors);
+    // One phase buffer for the record and then each of its spans.
+    let mut phase = Vec::new();
+    let (points, bridged) = measure(&series, input.tau0, &factors, &mut phase);
     Ok(Prepared {
         axis: input.axis,
         points,
         bridged,
         time_terms,
         events,
-        spans: measure_spans(&series, input.tau0, opts),
+        spans: measure_spans(&series, input.tau0, opts, &mut phase),
         spectral_kinds,
         samples: SampleContext::of(input.rate),
     })

@@ -58,7 +58,8 @@ pub(super) struct SpanMeasure {
 /// stationary model then fits the whole record and still fails inside the span where the record
 /// is not stationary. The model, fitted once on the whole record, must also explain each span.
 /// Spans overlap by half, so that a change on a boundary sits in the middle of another span.
-pub(super) fn measure_spans(series: &[f64], tau0: f64, opts: &FitOptions) -> Vec<SpanMeasure> {
+/// `phase` is scratch for the spans' phase, one after the other (see [`super::measure`]).
+pub(super) fn measure_spans(series: &[f64], tau0: f64, opts: &FitOptions, phase: &mut Vec<f64>) -> Vec<SpanMeasure> {
     let n = series.len();
     let count = opts.spans.min(n / MIN_SPAN_SAMPLES);
     if count < 2 {
@@ -74,7 +75,7 @@ pub(super) fn measure_spans(series: &[f64], tau0: f64, opts: &FitOptions) -> Vec
                     start_s: a as f64 * tau0,
                     end_s: b as f64 * tau0,
                 },
-                points: super::measure(&series[a..b], tau0, &opts.grid.factors(max_m.max(1))).0,
+                points: super::measure(&series[a..b], tau0, &opts.grid.factors(max_m.max(1)), phase).0,
             }
         })
         .collect()
@@ -155,7 +156,7 @@ mod tests {
         let opts = FitOptions::default();
         // 4096 samples hold 4 spans of 1024 (not DEFAULT_SPANS = 8): 7 half-overlapping spans.
         let series: Vec<f64> = (0..4096).map(|i| (i % 7) as f64).collect();
-        let spans = measure_spans(&series, 0.01, &opts);
+        let spans = measure_spans(&series, 0.01, &opts, &mut Vec::new());
         assert_eq!(spans.len(), 7);
         for (i, s) in spans.iter().enumerate() {
             let start = i as f64 * 512.0 * 0.01;
@@ -165,7 +166,7 @@ mod tests {
             assert_eq!(s.points, own);
         }
         // Fewer than two spans' worth: no span check at all.
-        assert!(measure_spans(&series[..2047], 0.01, &opts).is_empty());
+        assert!(measure_spans(&series[..2047], 0.01, &opts, &mut Vec::new()).is_empty());
     }
 
     #[test]

@@ -187,8 +187,10 @@ fn adis16405_accel_is_the_low_pass_and_a_0_56_hz_line() {
 
 /// The accel axes with both lines and the louder second half (issue 10, Done 2 — what holds;
 /// docs/model.md, "On the ADIS16405"): from B,K,bandwidth,sinusoid the diagnosis names the second
-/// line (`vibration`) first on accel_x and accel_y, near 10 Hz; with it and `noise_burst` (accel_y's
-/// white level is louder from about 2155 s to the end) the whole-record Allan variance of every
+/// line (`vibration`, near 10 Hz) first on accel_x (fit_error after 4.31) and on accel_y the
+/// louder second half (`noise_burst` from about 2155 s to the end, ×1.13: 4.44) before the line
+/// (7.26: the burst explains more, and a located effect that explains the most comes first); with
+/// both the whole-record Allan variance of every
 /// accel axis fits (whole-record fit_error ≤ 2; measured 1.49 / 0.99 / 1.49) and fit_error falls
 /// to 3.17 / 3.07 on accel_x / accel_y (from 5.93 / 7.36), asserted ≤ 3.5. fit_error ≤ 2 does NOT
 /// hold: the spans at 1800–2475 s fail on all three axes (span RMS 4.5–8.8, measured/model 2–4 at
@@ -231,7 +233,9 @@ fn adis16405_accel_is_two_lines_and_a_louder_second_half() {
         let d = diagnose(&input(axis, rate), &base, REGISTRY, &opts).unwrap();
         let names: Vec<&str> = d.suggestions.iter().map(|s| s.effect.as_str()).collect();
         println!("{}: {base} suggestions {names:?}", axis.name());
-        assert_eq!(names.first(), Some(&"vibration"), "{}", axis.name());
+        let first = if axis == Axis::AccelX { "vibration" } else { "noise_burst" };
+        assert_eq!(names.first(), Some(&first), "{}", axis.name());
+        assert!(names.contains(&"vibration"), "{}: {names:?}", axis.name());
         assert!(lines.iter().any(|f| (9.5..=11.0).contains(f)), "{}: lines {lines:?}", axis.name());
         assert!(f.fit_error <= 3.5, "{}: fit_error {}", axis.name(), f.fit_error);
         if axis == Axis::AccelY {

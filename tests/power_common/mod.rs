@@ -302,12 +302,18 @@ fn quantization(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
 
 fn bias_step(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
     let axis = any_axis(rng);
+    let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+    let fraction = rng.random_range(0.25..0.75);
+    bias_step_at(s, axis, sign * strength, fraction)
+}
+
+/// A step of `strength` σ of the step test (negative: down) at `fraction` of the record.
+pub fn bias_step_at(s: &Setting, axis: Axis, strength: f64, fraction: f64) -> Hidden {
     let base = base_noise(s, axis);
     let w = step_window(s.samples(), &base);
     let sigma = (2.0 * base.avar(w as f64 / s.rate)).sqrt();
-    let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
-    let time = s.seconds() * rng.random_range(0.25..0.75);
-    Hidden { axis, effect: Box::new(BiasStep::new(time, sign * strength * sigma).unwrap()), motion: None, beside: None }
+    let step = BiasStep::new(fraction * s.seconds(), strength * sigma).unwrap();
+    Hidden { axis, effect: Box::new(step), motion: None, beside: None }
 }
 
 fn noise_burst(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {

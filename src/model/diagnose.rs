@@ -145,9 +145,11 @@ pub fn diagnose_planned(
     opts: &FitOptions,
     plans: &Plans,
 ) -> Result<Diagnosis, FitError> {
-    let base = prepare(input, spec, registry, opts)?;
+    let mut base = prepare(input, spec, registry, opts)?;
     let before = base.fit_spectral(spec, &base.spectral_kinds, opts)?;
     let series = cleaned(input, &before, registry);
+    // The candidates' frequency scans start from the record's lines too.
+    base.look_for_lines(&series, input.tau0);
     let base_noise = Whitened::planned(&series, &spectrum_of(&before, registry, input.tau0), plans);
     let spectral_spec = ModelSpec::from_ids(base.spectral_kinds.iter().map(|k| k.id()));
     let mut scored: Vec<(Suggestion, f64, FittedModel)> = Vec::new();

@@ -41,6 +41,9 @@ pub(super) struct Problem<'a> {
     /// Columns left out of the model (zero basis) while [`Problem::search_shapes`] has not yet
     /// searched their shapes.
     pub(super) muted: Vec<bool>,
+    /// Peaks of the samples' periodogram, (frequency, bin width) in Hz: extra candidates of
+    /// every frequency's scan (see [`Problem::search_shapes`]).
+    pub(super) line_hints: Vec<(f64, f64)>,
 }
 
 /// A weighted NNLS solution at fixed shape parameters.
@@ -95,6 +98,7 @@ impl<'a> Problem<'a> {
             columns,
             output: None,
             muted: Vec::new(),
+            line_hints: Vec::new(),
         };
         for j in 0..problem.columns.len() {
             let shapes = problem.initial_shapes();

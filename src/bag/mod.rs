@@ -36,7 +36,7 @@ pub use writer::{BagWriter, ChunkCompression, WriterOptions};
 use crate::msgs::MsgError;
 use crate::signal::{ImuSample, TemperatureSample};
 use std::fmt;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// The ROS type of IMU messages: the topic fdavar analyses has this type.
 pub const IMU_TYPE: &str = "sensor_msgs/msg/Imu";
@@ -271,4 +271,26 @@ impl BagError {
         let path = path.into();
         move |source| BagError::Io { path, source }
     }
+}
+
+/// Whether `path` is a rosbag2 storage file: a `.mcap` or `.db3` file.
+pub fn is_storage_file(path: &Path) -> bool {
+    path.is_file() && path.extension().is_some_and(|e| e == "mcap" || e == "db3")
+}
+
+/// Whether [`BagReader::open`] reads the directory `dir` as one recording: it holds
+/// `metadata.yaml` or a storage file ([`is_storage_file`]) directly inside.
+///
+/// # Errors
+/// The directory cannot be listed.
+pub fn holds_a_bag(dir: &Path) -> std::io::Result<bool> {
+    if dir.join(metadata::FILE_NAME).exists() {
+        return Ok(true);
+    }
+    for entry in std::fs::read_dir(dir)? {
+        if is_storage_file(&entry?.path()) {
+            return Ok(true);
+        }
+    }
+    Ok(false)
 }

@@ -231,7 +231,7 @@ fn bag_files(path: &Path) -> Result<Vec<BagFile>, BagError> {
     for entry in std::fs::read_dir(path).map_err(BagError::io(path))? {
         let file = entry.map_err(BagError::io(path))?.path();
         if let Ok(storage) = metadata::storage_of(&file, None) {
-            if file.is_file() && file.extension().is_some_and(|e| e == "mcap" || e == "db3") {
+            if super::is_storage_file(&file) {
                 files.push(BagFile {
                     path: file,
                     storage,

@@ -16,23 +16,10 @@ use fdavar::report::table::Table;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
-/// Whether `dir` is a directory of recordings rather than one recording: a directory with neither
-/// `metadata.yaml` nor a `.mcap` / `.db3` file directly inside (what [`fdavar::bag::BagReader`]
-/// opens as one bag).
+/// Whether `dir` is a directory of recordings rather than one recording: a directory
+/// [`fdavar::bag::BagReader`] does not open as one bag ([`fdavar::bag::holds_a_bag`]).
 fn is_fleet(dir: &Path) -> std::io::Result<bool> {
-    if !dir.is_dir() || dir.join("metadata.yaml").exists() {
-        return Ok(false);
-    }
-    for entry in std::fs::read_dir(dir)? {
-        if is_storage_file(&entry?.path()) {
-            return Ok(false);
-        }
-    }
-    Ok(true)
-}
-
-fn is_storage_file(path: &Path) -> bool {
-    path.is_file() && path.extension().is_some_and(|e| e == "mcap" || e == "db3")
+    Ok(dir.is_dir() && !fdavar::bag::holds_a_bag(dir)?)
 }
 
 /// The recordings `paths` name, in the order given: a directory of recordings ([`is_fleet`])

@@ -117,7 +117,10 @@ fn sinusoid() {
 #[test]
 fn gauss_markov() {
     run(&case("gauss_markov", Axis::GyroY, 21, 100.0, 30.0, &[3e-4, 3.0], &[AMP, TC]));
-    run(&case("gauss_markov", Axis::GyroZ, 22, 200.0, 30.0, &[3e-4, 8.0], &[AMP, TC]));
+    // 600 correlation times, as the other two cases: on fewer, σ and T scatter beyond 10 % and
+    // 25 % in a share of records (tests/power_common GM_CORRELATION_TIMES; T = 8 s here gave σ
+    // 12 % high at 30 min and T 33 % high at 40 min).
+    run(&case("gauss_markov", Axis::GyroZ, 22, 200.0, 40.0, &[3e-4, 4.0], &[AMP, TC]));
     run(&case("gauss_markov", Axis::AccelX, 23, 100.0, 20.0, &[4e-3, 2.0], &[AMP, TC]));
 }
 

@@ -1,7 +1,7 @@
 //! `bandwidth`: white rate noise seen through the sensor's own low-pass filter.
 
 use super::{
-    check_params, params_of, std_normal, Domain, Effect, EffectKind, Evidence, Explanation,
+    check_params, exponential, params_of, Domain, Effect, EffectKind, Evidence, Explanation,
     Extended, Extra, KindInfo, Param, ParamError, ParamSpec, SimContext, SimStage,
 };
 use rand::RngCore;
@@ -76,13 +76,9 @@ impl Extra for BandwidthExtra {
 /// autocorrelation g(s) has first absolute moment μ₁ = ∫|s|·g(s) ds, σ²(τ) = n²/τ − 3n²μ₁/(2τ²)
 /// once τ exceeds the filter's memory (μ₁ = T for the first-order filter).
 ///
-/// Simulated exactly: the state x (filtered rate at the end of a period) and the period's mean
-/// y = I/τ0, I = ∫x dt, with φ = e^(−τ0/T), follow
-/// ```text
-/// x₊ = φ·x + e₁,   I = T(1 − φ)·x + e₂,   (e₁, e₂) ~ N(0, C)
-/// C₁₁ = n²(1 − φ²)/(2T),  C₂₂ = n²·[τ0 − 2T(1 − φ) + T(1 − φ²)/2],  C₁₂ = n²(1 − φ)²/2
-/// ```
-/// (Gillespie's exact update of an Ornstein–Uhlenbeck process and its integral).
+/// Simulated exactly (Gillespie's update of an Ornstein–Uhlenbeck process and its integral over
+/// a period), by the code `gauss_markov` shares: the same process, read as a wandering bias
+/// (`exponential.rs`).
 ///
 /// # References
 /// IEEE Std 952-1997, Annex C (exponentially correlated noise); D. T. Gillespie, "Exact numerical
@@ -129,33 +125,10 @@ impl Effect for Bandwidth {
         params_of(SCHEMA, &[self.n, self.cutoff_hz])
     }
     fn avar(&self, tau: f64) -> Option<f64> {
-        let t = self.time_constant_s();
-        let x = tau / t;
-        // 1 − bracket/x, the fraction of n²/τ left; by its series for small x (cancellation).
-        let left = if x < 1e-2 {
-            x * (1.0 / 3.0 - x / 4.0 + 7.0 * x * x / 60.0 - x * x * x / 24.0)
-        } else {
-            1.0 - (3.0 - 4.0 * (-x).exp() + (-2.0 * x).exp()) / (2.0 * x)
-        };
-        Some(self.n * self.n / tau * left)
+        Some(self.n * self.n / tau * exponential::allan_bracket(tau / self.time_constant_s()))
     }
     fn simulate(&self, ctx: &SimContext<'_>, rng: &mut dyn RngCore, out: &mut [f64]) {
-        let (t, dt, n2) = (self.time_constant_s(), ctx.dt, self.n * self.n);
-        let phi = (-dt / t).exp();
-        let c11 = n2 * (1.0 - phi * phi) / (2.0 * t);
-        let c12 = n2 * (1.0 - phi).powi(2) / 2.0;
-        let c22 = n2 * (dt - 2.0 * t * (1.0 - phi) + t * (1.0 - phi * phi) / 2.0);
-        // Cholesky of C; C₂₂ − C₁₂²/C₁₁ ≥ 0 up to rounding.
-        let l11 = c11.sqrt();
-        let l21 = if l11 > 0.0 { c12 / l11 } else { 0.0 };
-        let l22 = (c22 - l21 * l21).max(0.0).sqrt();
-        let mut x = (n2 / (2.0 * t)).sqrt() * std_normal(rng);
-        for y in out.iter_mut() {
-            let (u, v) = (std_normal(rng), std_normal(rng));
-            let integral = t * (1.0 - phi) * x + l21 * u + l22 * v;
-            x = phi * x + l11 * u;
-            *y += integral / dt;
-        }
+        exponential::add_period_means(self.n * self.n, self.time_constant_s(), ctx.dt, rng, out);
     }
     fn explain(&self) -> Explanation {
         Explanation {

@@ -14,6 +14,7 @@ use std::fmt::Debug;
 mod bandwidth;
 mod bias_instability;
 mod bias_step;
+mod exponential;
 mod g_sensitivity;
 mod gauss_markov;
 mod noise_burst;

@@ -38,6 +38,7 @@
 //! - `covariance`: parameter uncertainties by GLS with correlated τ points ([`tau_correlation`]).
 
 mod covariance;
+mod periodogram;
 mod quantizer;
 mod scoring;
 mod searches;
@@ -46,6 +47,7 @@ mod spans;
 mod types;
 
 pub use covariance::tau_correlation;
+pub use periodogram::{LineSupport, Periodogram, LINE_ALPHA, LINE_WIDTH};
 pub use scoring::{failing_tau, fit_error, z_scores, FAILING_Z};
 pub use spans::{SpanCheck, DEFAULT_SPANS, MIN_SPAN_EDF, MIN_SPAN_SAMPLES};
 pub use types::{
@@ -220,7 +222,7 @@ pub fn prepare(
         spans: measure_spans(&series, input.tau0, opts, &mut phase),
         samples: SampleContext {
             lines: if spectral_kinds.iter().any(|k| has_frequency(*k)) {
-                searches::line_candidates(&series, input.tau0)
+                periodogram::line_candidates(&series, input.tau0)
             } else {
                 Vec::new()
             },
@@ -231,19 +233,19 @@ pub fn prepare(
 }
 
 /// Whether a kind searches a frequency (a line: `sinusoid`, `vibration`).
-fn has_frequency(kind: &dyn EffectKind) -> bool {
+pub(crate) fn has_frequency(kind: &dyn EffectKind) -> bool {
     kind.schema().iter().any(|p| p.name == FREQUENCY_PARAM)
 }
 
 /// The schema name of a line's frequency, the shape the periodogram's peaks are candidates of.
-const FREQUENCY_PARAM: &str = "frequency_hz";
+pub(crate) const FREQUENCY_PARAM: &str = "frequency_hz";
 
 impl Prepared {
     /// Looks for lines in `series` (the record the diagnosis tests, sampled every `tau0` s) for
     /// the fits of candidates with a frequency, when the spec had none to look for them.
     pub fn look_for_lines(&mut self, series: &[f64], tau0: f64) {
         if self.samples.lines.is_empty() {
-            self.samples.lines = searches::line_candidates(series, tau0);
+            self.samples.lines = periodogram::line_candidates(series, tau0);
         }
     }
 }
@@ -348,7 +350,7 @@ struct SampleContext {
     /// Mean of the valid rate samples; `None` when the samples are not at hand.
     mean_rate: Option<f64>,
     /// The strongest peaks of the samples' periodogram, (frequency, bin width) in Hz: extra
-    /// candidates of the frequency scan ([`searches::line_candidates`]); empty when not looked for.
+    /// candidates of the frequency scan ([`periodogram::line_candidates`]); empty when not looked for.
     lines: Vec<(f64, f64)>,
 }
 
@@ -488,12 +490,12 @@ mod tests {
                 (2.0 * std::f64::consts::PI * 3.33 * t).sin() + 0.3 * (2.0 * std::f64::consts::PI * 12.07 * t).cos()
             })
             .collect();
-        let peaks = searches::line_candidates(&y, 0.01);
+        let peaks = periodogram::line_candidates(&y, 0.01);
         assert_eq!(peaks.len(), 3);
         assert!((peaks[0].0 - 3.33).abs() < 0.02, "{peaks:?}");
         assert!((peaks[1].0 - 12.07).abs() < 0.02, "{peaks:?}");
         assert!((peaks[0].1 - 0.1).abs() < 0.002, "{peaks:?}");
-        assert!(searches::line_candidates(&y[..10], 0.01).is_empty());
+        assert!(periodogram::line_candidates(&y[..10], 0.01).is_empty());
     }
 
     #[test]

@@ -1,5 +1,6 @@
 //! The searches over shape parameters (a frequency, a time constant): a log grid scan of each
-//! (a frequency's also at the peaks of the record's periodogram, [`line_candidates`]), refined by
+//! (a frequency's also at the peaks of the record's periodogram,
+//! [`super::periodogram::line_candidates`]), refined by
 //! golden section, around the NNLS of the amplitudes.
 //!
 //! The cost need not have one minimum in a shape parameter (two lines, a line beside a bump), so a
@@ -89,58 +90,6 @@ impl Problem<'_> {
         self.muted.clear();
         Ok(shapes)
     }
-}
-
-/// How many peaks of the periodogram [`line_candidates`] hands to the frequency scans.
-const LINE_CANDIDATES: usize = 3;
-
-/// The [`LINE_CANDIDATES`] strongest local maxima of the periodogram of `series` (sampled every
-/// `tau0` s), as (frequency, bin width) in Hz, strongest first.
-///
-/// # Formula
-/// ```text
-/// P[k] = |Σ (y[n] − ȳ)·e^(−2πikn/N)|²,   f = (k + δ)/(N·τ0),   δ = ½(a − c)/(a − 2b + c)
-/// ```
-/// with a, b, c the log power at bins k − 1, k, k + 1 (the parabola through them; Quinn 1994 for
-/// the family of such interpolators). Invalid samples count as the mean; the series is
-/// zero-padded to a fast length ([`crate::model::timedomain::fast_len`] of a length at least N).
-/// On noise alone the peaks are anywhere: they are candidates, and the scan keeps what fits best.
-pub(super) fn line_candidates(series: &[f64], tau0: f64) -> Vec<(f64, f64)> {
-    let valid: Vec<f64> = series.iter().copied().filter(|v| v.is_finite()).collect();
-    if valid.len() < 16 || tau0.is_nan() || tau0 <= 0.0 {
-        return Vec::new();
-    }
-    let mean = valid.iter().sum::<f64>() / valid.len() as f64;
-    // The fast length at or above the record's: fast_len rounds down.
-    let mut n = series.len();
-    while crate::model::timedomain::fast_len(n) < series.len() {
-        n += n / 64 + 1;
-    }
-    let n = crate::model::timedomain::fast_len(n);
-    let mut input: Vec<f64> = series.iter().map(|v| if v.is_finite() { v - mean } else { 0.0 }).collect();
-    input.resize(n, 0.0);
-    let fft = realfft::RealFftPlanner::<f64>::new().plan_fft_forward(n);
-    let mut spectrum = fft.make_output_vec();
-    if fft.process(&mut input, &mut spectrum).is_err() {
-        return Vec::new();
-    }
-    let power: Vec<f64> = spectrum.iter().map(|c| c.norm_sqr()).collect();
-    let mut peaks: Vec<(f64, usize)> = (2..power.len().saturating_sub(1))
-        .filter(|&k| power[k] > power[k - 1] && power[k] >= power[k + 1])
-        .map(|k| (power[k], k))
-        .collect();
-    peaks.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let bin = 1.0 / (n as f64 * tau0);
-    peaks
-        .iter()
-        .take(LINE_CANDIDATES)
-        .map(|&(_, k)| {
-            let (a, b, c) = (power[k - 1].ln(), power[k].ln(), power[k + 1].ln());
-            let curvature = a - 2.0 * b + c;
-            let delta = if curvature < 0.0 { (0.5 * (a - c) / curvature).clamp(-0.5, 0.5) } else { 0.0 };
-            ((k as f64 + delta) * bin, bin)
-        })
-        .collect()
 }
 
 /// Golden-section search for the minimum of a unimodal `f` on [a, b]: `iterations` shrinkings of

@@ -149,7 +149,7 @@ pub fn diagnose_planned(
     let before = base.fit_spectral(spec, &base.spectral_kinds, opts)?;
     let series = cleaned(input, &before, registry);
     // The candidates' frequency scans start from the record's lines too.
-    base.look_for_lines(&series, input.tau0);
+    base.look_for_lines(&series, input.tau0, plans);
     let base_noise = Whitened::planned(&series, &spectrum_of(&before, registry, input.tau0), plans);
     let spectral_spec = ModelSpec::from_ids(base.spectral_kinds.iter().map(|k| k.id()));
     let mut scored: Vec<(Suggestion, f64, FittedModel)> = Vec::new();

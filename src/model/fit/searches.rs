@@ -11,6 +11,7 @@
 use super::scoring::log_cost;
 use super::solver::Problem;
 use super::types::FitError;
+use crate::model::timedomain::Plans;
 
 impl Problem<'_> {
     /// Coordinate search over the shape parameters: a log grid scan, then golden-section refinement.
@@ -105,7 +106,8 @@ const LINE_CANDIDATES: usize = 3;
 /// the family of such interpolators). Invalid samples count as the mean; the series is
 /// zero-padded to a fast length ([`crate::model::timedomain::fast_len`] of a length at least N).
 /// On noise alone the peaks are anywhere: they are candidates, and the scan keeps what fits best.
-pub(super) fn line_candidates(series: &[f64], tau0: f64) -> Vec<(f64, f64)> {
+/// The transform comes from `plans`, which the axes of a record share (one plan per length).
+pub(super) fn line_candidates(series: &[f64], tau0: f64, plans: &Plans) -> Vec<(f64, f64)> {
     let valid: Vec<f64> = series.iter().copied().filter(|v| v.is_finite()).collect();
     if valid.len() < 16 || tau0.is_nan() || tau0 <= 0.0 {
         return Vec::new();
@@ -119,7 +121,7 @@ pub(super) fn line_candidates(series: &[f64], tau0: f64) -> Vec<(f64, f64)> {
     let n = crate::model::timedomain::fast_len(n);
     let mut input: Vec<f64> = series.iter().map(|v| if v.is_finite() { v - mean } else { 0.0 }).collect();
     input.resize(n, 0.0);
-    let fft = realfft::RealFftPlanner::<f64>::new().plan_fft_forward(n);
+    let fft = plans.transform(n);
     let mut spectrum = fft.make_output_vec();
     if fft.process(&mut input, &mut spectrum).is_err() {
         return Vec::new();

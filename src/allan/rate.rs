@@ -121,8 +121,8 @@ pub fn oavar_rate_bridged(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<Rat
 /// measurements one after the other reuse one buffer.
 ///
 /// Why: the fit measures the whole record and then each of its spans; a fresh buffer for each is
-/// fresh pages from the kernel, zeroed and faulted in, for every one of them (buffers of a
-/// series' size get mappings of their own: `analysis::return_large_buffers_to_kernel`).
+/// fresh pages from the kernel, zeroed and faulted in, for every one of them (in the node,
+/// buffers of a series' size get mappings of their own: `analysis::return_large_buffers_to_kernel`).
 pub fn oavar_rate_bridged_in(rate: &[f64], tau0: f64, factors: &[usize], phase: &mut Vec<f64>) -> Vec<RatePoint> {
     rate_points(rate, tau0, factors, true, phase)
 }

@@ -149,7 +149,7 @@ pub fn diagnose_planned(
     let before = base.fit_spectral(spec, &base.spectral_kinds, opts)?;
     let series = cleaned(input, &before, registry);
     // The candidates' frequency scans start from the record's lines too.
-    base.look_for_lines(&series, input.tau0);
+    base.look_for_lines(&series, input.tau0, plans);
     let base_noise = Whitened::planned(&series, &spectrum_of(&before, registry, input.tau0), plans);
     let spectral_spec = ModelSpec::from_ids(base.spectral_kinds.iter().map(|k| k.id()));
     let mut scored: Vec<(Suggestion, f64, FittedModel)> = Vec::new();
@@ -254,7 +254,7 @@ pub fn diagnose_planned(
         }
     }
     best_first(&mut scored, registry, &regressed);
-    lines_that_stand_out_first(&mut scored, registry, &series, input.tau0);
+    lines_that_stand_out_first(&mut scored, registry, &series, input.tau0, plans);
     if let Some(w) = &base_noise {
         one_drift_one_driver(&mut scored, registry, &regressed, input, &series, w.noise());
     }
@@ -336,12 +336,13 @@ fn lines_that_stand_out_first<T>(
     registry: &[&'static dyn EffectKind],
     series: &[f64],
     tau0: f64,
+    plans: &Plans,
 ) {
     let is_line = |s: &Suggestion| registry.iter().any(|k| k.id() == s.effect && has_frequency(*k));
     if !scored.iter().any(|(s, ..)| is_line(s)) || scored.iter().all(|(s, ..)| is_line(s)) {
         return;
     }
-    let Some(periodogram) = Periodogram::of(series, tau0) else {
+    let Some(periodogram) = Periodogram::of(series, tau0, plans) else {
         return;
     };
     let unsupported = |s: &Suggestion| {

@@ -791,6 +791,13 @@ impl Plans {
         });
         Plan { taper: Arc::clone(taper), fft: planner.plan_fft_forward(len) }
     }
+
+    /// The forward real-to-complex transform of `len` points alone (made once per length), for a
+    /// transform without the taper (`fit::Periodogram`).
+    pub fn transform(&self, len: usize) -> Arc<dyn RealToComplex<f64>> {
+        let mut made = self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        made.planner.plan_fft_forward(len)
+    }
 }
 
 /// The largest even n' ≤ `n` whose prime factors are at most 13 (a few excepted): a length whose

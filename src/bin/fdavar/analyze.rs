@@ -26,7 +26,7 @@ use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::sync::Arc;
 
 /// Samples per chunk handed to the row workers (about 115 kB: below the 128 kB from which a
-/// buffer gets fresh pages of its own, `analysis::return_large_buffers_to_kernel`; a chunk of
+/// buffer got fresh pages of its own before `analysis::reuse_buffers_up_to_4_mb`; a chunk of
 /// 4096 samples was 88 mappings, each faulted in, for an hour at 100 Hz).
 const CHUNK: usize = 2048;
 /// Chunks queued per worker before the reader waits (16 of 2048: the 32768 samples of 8 of 4096).

@@ -97,7 +97,7 @@ fn parse_args<A: clap::Args + clap::FromArgMatches>(argv: &[&str]) -> Result<A, 
 }
 
 fn main() -> ExitCode {
-    fdavar::analysis::return_large_buffers_to_kernel();
+    fdavar::analysis::reuse_buffers_up_to_4_mb();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) => {

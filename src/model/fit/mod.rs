@@ -59,7 +59,7 @@ use crate::allan::AllanPoint;
 use crate::model::effects::{unit_on_axis, Domain, EffectKind};
 use crate::model::measure::NoiseClass;
 use crate::model::spec::ModelSpec;
-use crate::model::timedomain::{self, NoiseSpectrum, Signature};
+use crate::model::timedomain::{self, NoiseSpectrum, Plans, Signature};
 use crate::signal::Axis;
 use scoring::rms;
 use solver::Problem;
@@ -222,7 +222,7 @@ pub fn prepare(
         spans: measure_spans(&series, input.tau0, opts, &mut phase),
         samples: SampleContext {
             lines: if spectral_kinds.iter().any(|k| has_frequency(*k)) {
-                periodogram::line_candidates(&series, input.tau0)
+                periodogram::line_candidates(&series, input.tau0, &Plans::default())
             } else {
                 Vec::new()
             },
@@ -242,10 +242,11 @@ pub(crate) const FREQUENCY_PARAM: &str = "frequency_hz";
 
 impl Prepared {
     /// Looks for lines in `series` (the record the diagnosis tests, sampled every `tau0` s) for
-    /// the fits of candidates with a frequency, when the spec had none to look for them.
-    pub fn look_for_lines(&mut self, series: &[f64], tau0: f64) {
+    /// the fits of candidates with a frequency, when the spec had none to look for them; the
+    /// transform is planned by `plans` (shared by the axes of a record).
+    pub fn look_for_lines(&mut self, series: &[f64], tau0: f64, plans: &Plans) {
         if self.samples.lines.is_empty() {
-            self.samples.lines = periodogram::line_candidates(series, tau0);
+            self.samples.lines = periodogram::line_candidates(series, tau0, plans);
         }
     }
 }
@@ -490,12 +491,12 @@ mod tests {
                 (2.0 * std::f64::consts::PI * 3.33 * t).sin() + 0.3 * (2.0 * std::f64::consts::PI * 12.07 * t).cos()
             })
             .collect();
-        let peaks = periodogram::line_candidates(&y, 0.01);
+        let peaks = periodogram::line_candidates(&y, 0.01, &Plans::default());
         assert_eq!(peaks.len(), 3);
         assert!((peaks[0].0 - 3.33).abs() < 0.02, "{peaks:?}");
         assert!((peaks[1].0 - 12.07).abs() < 0.02, "{peaks:?}");
         assert!((peaks[0].1 - 0.1).abs() < 0.002, "{peaks:?}");
-        assert!(periodogram::line_candidates(&y[..10], 0.01).is_empty());
+        assert!(periodogram::line_candidates(&y[..10], 0.01, &Plans::default()).is_empty());
     }
 
     #[test]

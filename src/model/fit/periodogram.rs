@@ -7,6 +7,8 @@
 //! can fit the bump. In the spectrum they differ by kind: a sinusoid is one line standing out of
 //! its neighbourhood, a Gauss–Markov process a smooth shoulder.
 
+use crate::model::timedomain::Plans;
+
 /// How many peaks of the periodogram [`line_candidates`] hands to the frequency scans.
 pub(super) const LINE_CANDIDATES: usize = 3;
 
@@ -25,8 +27,8 @@ const MIN_REFERENCE_BINS: usize = 24;
 
 /// The [`LINE_CANDIDATES`] strongest peaks of the periodogram of `series` (see
 /// [`Periodogram::peaks`]); empty when the series is too short to have one.
-pub(super) fn line_candidates(series: &[f64], tau0: f64) -> Vec<(f64, f64)> {
-    Periodogram::of(series, tau0).map_or_else(Vec::new, |p| p.peaks(LINE_CANDIDATES))
+pub(super) fn line_candidates(series: &[f64], tau0: f64, plans: &Plans) -> Vec<(f64, f64)> {
+    Periodogram::of(series, tau0, plans).map_or_else(Vec::new, |p| p.peaks(LINE_CANDIDATES))
 }
 
 /// The periodogram of a record: its power per frequency bin.
@@ -61,8 +63,9 @@ impl Periodogram {
     /// P[k] = |Σ (y[n] − ȳ)·e^(−2πikn/N)|²,   bin k at k/(N·τ0) Hz
     /// ```
     /// Invalid samples count as the mean; the series is zero-padded to a fast length
-    /// ([`crate::model::timedomain::fast_len`] of a length at least the record's).
-    pub fn of(series: &[f64], tau0: f64) -> Option<Self> {
+    /// ([`crate::model::timedomain::fast_len`] of a length at least the record's). The transform
+    /// comes from `plans`, which the axes of a record share (one plan per length).
+    pub fn of(series: &[f64], tau0: f64, plans: &Plans) -> Option<Self> {
         let valid = series.iter().filter(|v| v.is_finite()).count();
         if valid < 16 || tau0.is_nan() || tau0 <= 0.0 {
             return None;
@@ -76,7 +79,7 @@ impl Periodogram {
         let n = crate::model::timedomain::fast_len(n);
         let mut input: Vec<f64> = series.iter().map(|v| if v.is_finite() { v - mean } else { 0.0 }).collect();
         input.resize(n, 0.0);
-        let fft = realfft::RealFftPlanner::<f64>::new().plan_fft_forward(n);
+        let fft = plans.transform(n);
         let mut spectrum = fft.make_output_vec();
         fft.process(&mut input, &mut spectrum).ok()?;
         Some(Self {
@@ -188,10 +191,10 @@ mod tests {
         let line = Sinusoid::new(1.2e-3, 0.05).unwrap();
         let gm = GaussMarkov::new(1.2e-3, 3.0).unwrap();
         for seed in 0..5 {
-            let with_line = Periodogram::of(&simulated(&[&line], seed), 0.01).unwrap();
+            let with_line = Periodogram::of(&simulated(&[&line], seed), 0.01, &Plans::default()).unwrap();
             let s = with_line.line_support(0.05).unwrap();
             assert!(s.holds(), "seed {seed}: {s:?}");
-            let with_gm = Periodogram::of(&simulated(&[&gm], seed), 0.01).unwrap();
+            let with_gm = Periodogram::of(&simulated(&[&gm], seed), 0.01, &Plans::default()).unwrap();
             for f in [0.03, 0.05, 0.08] {
                 let s = with_gm.line_support(f).unwrap();
                 assert!(!s.holds(), "seed {seed}, {f} Hz: {s:?}");
@@ -201,7 +204,7 @@ mod tests {
 
     #[test]
     fn a_line_of_few_periods_is_not_judged() {
-        let p = Periodogram::of(&simulated(&[], 1), 0.01).unwrap();
+        let p = Periodogram::of(&simulated(&[], 1), 0.01, &Plans::default()).unwrap();
         // 0.004 Hz: 4.8 periods in 20 min, an octave around it holds about 3 bins.
         assert_eq!(p.line_support(0.004), None);
         assert!(p.line_support(1.0).is_some());

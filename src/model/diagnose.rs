@@ -29,8 +29,8 @@
 
 use crate::model::effects::{Domain, EffectKind, Evidence};
 use crate::model::fit::{
-    fit, has_frequency, prepare, tau_correlation, AxisInput, CurveFit, FitError, FitOptions,
-    FitPoint, FittedModel, FittedTerm, ParamValue, Periodogram, FREQUENCY_PARAM,
+    fit, prepare, tau_correlation, AxisInput, CurveFit, FitError, FitOptions, FitPoint,
+    FittedModel, FittedTerm, ParamValue, Periodogram, FREQUENCY_PARAM,
 };
 use crate::model::measure::NoiseClass;
 use crate::model::spec::ModelSpec;
@@ -254,7 +254,7 @@ pub fn diagnose_planned(
         }
     }
     best_first(&mut scored, registry, &regressed);
-    lines_that_stand_out_first(&mut scored, registry, &series, input.tau0, plans);
+    lines_that_stand_out_first(&mut scored, &series, input.tau0, plans);
     if let Some(w) = &base_noise {
         one_drift_one_driver(&mut scored, registry, &regressed, input, &series, w.noise());
     }
@@ -326,32 +326,24 @@ fn best_first<T>(scored: &mut [(Suggestion, f64, T)], registry: &[&'static dyn E
 /// Why: on the Allan variance a sinusoid's bump can take a Gauss–Markov process's (their nulls
 /// sit where a record of a few hundred correlation times has few degrees of freedom), and its
 /// χ² gain then ranked it first — the 5–8 of 100 Gauss–Markov recordings missed at 4–16× the
-/// base AVAR (docs/model.md, power curves; none now). A periodic disturbance is one line in the spectrum, a
-/// Gauss–Markov process a smooth shoulder: measured, the largest power within 10 % of a fitted
-/// frequency over its neighbourhood's median is 570–740 for a line 6× the base AVAR at its peak and 1–7 on a
-/// Gauss–Markov shoulder (unit tests of `Periodogram`), against thresholds of 13–14.
-/// The periodogram is computed only when the order can change (a line and something else).
-fn lines_that_stand_out_first<T>(
-    scored: &mut [(Suggestion, f64, T)],
-    registry: &[&'static dyn EffectKind],
-    series: &[f64],
-    tau0: f64,
-    plans: &Plans,
-) {
-    let is_line = |s: &Suggestion| registry.iter().any(|k| k.id() == s.effect && has_frequency(*k));
-    if !scored.iter().any(|(s, ..)| is_line(s)) || scored.iter().all(|(s, ..)| is_line(s)) {
+/// base AVAR (docs/model.md, power curves; none now). A periodic disturbance is one line in the
+/// spectrum, a Gauss–Markov process a smooth shoulder: measured, the largest power within 10 % of
+/// a fitted frequency over its neighbourhood's median is 570–740 for a line 6× the base AVAR at
+/// its peak and 1–7 on a Gauss–Markov shoulder (unit tests of `Periodogram`), against thresholds
+/// of 13–14. The periodogram is computed only when the order can change (a line and something
+/// else).
+fn lines_that_stand_out_first<T>(scored: &mut [(Suggestion, f64, T)], series: &[f64], tau0: f64, plans: &Plans) {
+    let frequency = |s: &Suggestion| s.params.iter().find(|p| p.name == FREQUENCY_PARAM).map(|p| p.value);
+    if !scored.iter().any(|(s, ..)| frequency(s).is_some()) || scored.iter().all(|(s, ..)| frequency(s).is_some()) {
         return;
     }
     let Some(periodogram) = Periodogram::of(series, tau0, plans) else {
         return;
     };
     let unsupported = |s: &Suggestion| {
-        is_line(s)
-            && s.params
-                .iter()
-                .find(|p| p.name == FREQUENCY_PARAM)
-                .and_then(|f| periodogram.line_support(f.value))
-                .is_some_and(|support| !support.holds())
+        frequency(s)
+            .and_then(|f| periodogram.line_support(f))
+            .is_some_and(|support| !support.holds())
     };
     // A stable sort: the rest keep their order.
     scored.sort_by_key(|(s, ..)| unsupported(s));

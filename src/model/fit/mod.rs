@@ -233,7 +233,7 @@ pub fn prepare(
 }
 
 /// Whether a kind searches a frequency (a line: `sinusoid`, `vibration`).
-pub(crate) fn has_frequency(kind: &dyn EffectKind) -> bool {
+fn has_frequency(kind: &dyn EffectKind) -> bool {
     kind.schema().iter().any(|p| p.name == FREQUENCY_PARAM)
 }
 

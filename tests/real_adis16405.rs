@@ -2,14 +2,18 @@
 //! (read from there, never copied into the repository: CC BY-NC-SA; the test skips, saying so,
 //! when it is absent).
 //!
-//! The first hour (360 000 samples at 100 Hz) of each gyro axis, converted from deg/s to rad/s.
+//! The first hour (360 000 samples at 100 Hz) of each axis, converted from deg/s to rad/s and g to
+//! m/s²; the gyro test also reads the rest of the recording (the second hour and the last 2 800 s),
+//! which none of the thresholds was studied on.
 //! What it checks (issue 10, Done 2, the part that holds today; gyro_z below): on gyro_x and gyro_y the diagnosis
-//! of N,B,K names the sensor's low-pass (`bandwidth`) first, the model with it fits with
+//! of N,B,K names the sensor's low-pass (`bandwidth`) first in each of the three parts of the
+//! recording, the model with it fits with
 //! fit_error ≤ 2, its ARW is near the data sheet's (about 2 °/√h: accepted 1.5–3 °/√h) and its
 //! cut-off lies between the Nyquist frequency's half (25 Hz) and the sensor's 330 Hz analog
 //! bandwidth; where z is green (|z| ≤ 3) the model lies inside the 1σ band of the point (whose
 //! width is the model's own √(2/EDF), so |z| ≤ 1 there would be the same test: checked as the
-//! share of green points within 1σ, at least 60 % — about 68 % for a model that follows the data).
+//! share of green points within 1σ, at least 60 % — about 68 % for a model that follows the data;
+//! asserted on the first hour, measured 45–96 % over all six gyro parts).
 
 use fdavar::model::diagnose::diagnose;
 use fdavar::model::effects::REGISTRY;
@@ -21,6 +25,8 @@ use std::path::PathBuf;
 
 const RATE_HZ: f64 = 100.0;
 const SAMPLES: usize = 360_000;
+/// Rows of the whole recording (10 000 s).
+const ALL: usize = 1_000_000;
 
 /// The recording, or None after saying the test skips.
 fn recording() -> Option<PathBuf> {
@@ -32,8 +38,8 @@ fn recording() -> Option<PathBuf> {
     p.exists().then_some(p)
 }
 
-/// The six columns of the first `SAMPLES` rows: gyro in rad/s, accel in m/s².
-fn read(path: &PathBuf) -> [Vec<f64>; 6] {
+/// The six columns of the first `rows` rows: gyro in rad/s, accel in m/s².
+fn read(path: &PathBuf, rows: usize) -> [Vec<f64>; 6] {
     let file = std::fs::File::open(path).expect("open recording");
     let reader = BufReader::new(flate2::read::GzDecoder::new(file));
     let mut cols: [Vec<f64>; 6] = Default::default();
@@ -46,7 +52,7 @@ fn read(path: &PathBuf) -> [Vec<f64>; 6] {
             let scale = if i < 3 { std::f64::consts::PI / 180.0 } else { 9.80665 };
             col.push(v[1 + i] * scale);
         }
-        if cols[0].len() == SAMPLES {
+        if cols[0].len() == rows {
             break;
         }
     }
@@ -77,32 +83,43 @@ fn green_within_one_sigma(f: &FittedModel) -> f64 {
 #[test]
 fn adis16405_gyro_is_white_noise_through_its_low_pass() {
     let Some(path) = recording() else { return };
-    let cols = read(&path);
+    let cols = read(&path, ALL);
+    assert_eq!(cols[0].len(), ALL, "rows of the recording");
     let opts = FitOptions::default();
     let base = ModelSpec::parse("N,B,K").unwrap();
-    for (axis, rate) in [(Axis::GyroX, &cols[0]), (Axis::GyroY, &cols[1])] {
-        let d = diagnose(&input(axis, rate), &base, REGISTRY, &opts).unwrap();
-        let names: Vec<&str> = d.suggestions.iter().map(|s| s.effect.as_str()).collect();
-        println!("{}: N,B,K fit_error {:.2}, suggestions {names:?}", axis.name(), d.fit.fit_error);
-        assert_eq!(names.first(), Some(&"bandwidth"), "{}", axis.name());
-        let spec = ModelSpec::parse("B,K,bandwidth").unwrap();
-        let f = fit(&input(axis, rate), &spec, REGISTRY, &opts).unwrap();
-        let bw = f.term("bandwidth").unwrap();
-        let arw = arw_deg_per_sqrt_h(bw.param("n").unwrap().value);
-        let fc = bw.param("cutoff_hz").unwrap().value;
-        let share = green_within_one_sigma(&f);
-        println!(
-            "{}: B,K,bandwidth fit_error {:.2} (whole record {:.2}), ARW {arw:.2} deg/sqrt(h), \
-             cut-off {fc:.1} Hz, green points within 1 sigma {:.0} %",
-            axis.name(),
-            f.fit_error,
-            f.whole_fit_error,
-            100.0 * share
-        );
-        assert!(f.fit_error <= 2.0, "{}: fit_error {}", axis.name(), f.fit_error);
-        assert!((1.5..=3.0).contains(&arw), "{}: ARW {arw}", axis.name());
-        assert!((25.0..=330.0).contains(&fc), "{}: cut-off {fc}", axis.name());
-        assert!(share >= 0.6, "{}: {share}", axis.name());
+    let spec = ModelSpec::parse("B,K,bandwidth").unwrap();
+    // The first hour, on which the diagnosis was studied, then the second and the last 2 800 s:
+    // the same sensor, data nobody tuned for.
+    for part in [0..SAMPLES, SAMPLES..2 * SAMPLES, 2 * SAMPLES..ALL] {
+        for (axis, col) in [(Axis::GyroX, &cols[0]), (Axis::GyroY, &cols[1])] {
+            let rate = &col[part.clone()];
+            let what = format!("{} over {}-{} s", axis.name(), part.start / 100, part.end / 100);
+            let d = diagnose(&input(axis, rate), &base, REGISTRY, &opts).unwrap();
+            let names: Vec<&str> = d.suggestions.iter().map(|s| s.effect.as_str()).collect();
+            println!("{what}: N,B,K fit_error {:.2}, suggestions {names:?}", d.fit.fit_error);
+            assert_eq!(names.first(), Some(&"bandwidth"), "{what}");
+            let f = fit(&input(axis, rate), &spec, REGISTRY, &opts).unwrap();
+            let bw = f.term("bandwidth").unwrap();
+            let arw = arw_deg_per_sqrt_h(bw.param("n").unwrap().value);
+            let fc = bw.param("cutoff_hz").unwrap().value;
+            let share = green_within_one_sigma(&f);
+            println!(
+                "{what}: B,K,bandwidth fit_error {:.2} (whole record {:.2}), ARW {arw:.2} deg/sqrt(h), \
+                 cut-off {fc:.1} Hz, green points within 1 sigma {:.0} %",
+                f.fit_error,
+                f.whole_fit_error,
+                100.0 * share
+            );
+            assert!(f.fit_error <= 2.0, "{what}: fit_error {}", f.fit_error);
+            assert!((1.5..=3.0).contains(&arw), "{what}: ARW {arw}");
+            assert!((25.0..=330.0).contains(&fc), "{what}: cut-off {fc}");
+            // The share within 1σ is asserted on the first hour only: neighbouring τ points of one
+            // record are strongly correlated, so their z move together and the share of one record
+            // scatters widely even for a right model (45–96 % over these six parts, 2026-11-26).
+            if part.start == 0 {
+                assert!(share >= 0.6, "{what}: {share}");
+            }
+        }
     }
 }
 
@@ -111,7 +128,7 @@ fn adis16405_gyro_is_white_noise_through_its_low_pass() {
 #[test]
 fn adis16405_gyro_z_is_the_low_pass_and_a_21_hz_line() {
     let Some(path) = recording() else { return };
-    let cols = read(&path);
+    let cols = read(&path, SAMPLES);
     let spec = ModelSpec::parse("B,K,bandwidth,sinusoid").unwrap();
     let f = fit(&input(Axis::GyroZ, &cols[2]), &spec, REGISTRY, &FitOptions::default()).unwrap();
     let bw = f.term("bandwidth").unwrap();
@@ -143,7 +160,7 @@ fn adis16405_gyro_z_is_the_low_pass_and_a_21_hz_line() {
 #[test]
 fn adis16405_accel_is_the_low_pass_and_a_0_56_hz_line() {
     let Some(path) = recording() else { return };
-    let cols = read(&path);
+    let cols = read(&path, SAMPLES);
     let opts = FitOptions::default();
     let base = ModelSpec::parse("N,B,K").unwrap();
     let spec = ModelSpec::parse("B,K,bandwidth,sinusoid").unwrap();
@@ -199,7 +216,7 @@ fn adis16405_accel_is_the_low_pass_and_a_0_56_hz_line() {
 #[test]
 fn adis16405_accel_is_two_lines_and_a_louder_second_half() {
     let Some(path) = recording() else { return };
-    let cols = read(&path);
+    let cols = read(&path, SAMPLES);
     let opts = FitOptions::default();
     let base = ModelSpec::parse("B,K,bandwidth,sinusoid").unwrap();
     let spec = ModelSpec::parse("B,K,bandwidth,sinusoid,vibration,noise_burst").unwrap();

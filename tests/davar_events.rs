@@ -61,7 +61,11 @@ fn recording(kind: &str, rate_hz: f64, duration_s: f64, seed: u64) -> Vec<ImuSam
 }
 
 fn events(config: &DavarConfig, samples: &[ImuSample]) -> Vec<AxisEvent> {
-    let mut p = Pipeline::new(config.clone(), &Axis::ALL, None).unwrap();
+    events_on(&Axis::ALL, config, samples)
+}
+
+fn events_on(axes: &[Axis], config: &DavarConfig, samples: &[ImuSample]) -> Vec<AxisEvent> {
+    let mut p = Pipeline::new(config.clone(), axes, None).unwrap();
     let mut out = Output::default();
     for s in samples {
         p.push(s, &mut out);
@@ -81,21 +85,20 @@ fn assert_spans(events: &[AxisEvent]) {
     }
 }
 
+/// The two configurations every case runs: the defaults and the fixed 171 window.
+fn defaults_and_fixed_171() -> [(&'static str, DavarConfig); 2] {
+    [
+        ("defaults", DavarConfig::default()),
+        ("fixed 171", DavarConfig { policy: PolicyConfig::Fixed { length: 171 }, ..DavarConfig::default() }),
+    ]
+}
+
 /// One noise type at 100 Hz: 10 axis-hours with the defaults and 10 with the fixed 171 window.
 fn stationary_case(kind: &str, seed: u64) {
     let samples = recording(kind, 100.0, DURATION_S, seed);
     let axis_hours = 6.0 * DURATION_S / 3600.0;
     let bound = (axis_hours / 10.0).floor() as usize;
-    for (name, config) in [
-        ("defaults", DavarConfig::default()),
-        (
-            "fixed 171",
-            DavarConfig {
-                policy: PolicyConfig::Fixed { length: 171 },
-                ..DavarConfig::default()
-            },
-        ),
-    ] {
+    for (name, config) in defaults_and_fixed_171() {
         let found = events(&config, &samples);
         eprintln!("{kind} {name}: {} events in {axis_hours} axis-hours", found.len());
         assert_spans(&found);
@@ -163,34 +166,22 @@ fn every_event_ends_after_it_starts_and_long_bursts_are_found() {
             }
         })
         .collect();
-    for config in [
-        DavarConfig::default(),
-        DavarConfig {
-            policy: PolicyConfig::Fixed { length: 171 },
-            ..DavarConfig::default()
-        },
-    ] {
-        let mut p = Pipeline::new(config.clone(), &[Axis::GyroX], None).unwrap();
-        let mut out = Output::default();
-        for s in &samples {
-            p.push(s, &mut out);
-            out.rows.clear();
-        }
-        p.finish(&mut out);
-        assert_spans(&out.events);
+    for (_, config) in defaults_and_fixed_171() {
+        let found = events_on(&[Axis::GyroX], &config, &samples);
+        assert_spans(&found);
         let max = config.policy.max_window() as i64;
         for &(a, b) in bursts.iter().filter(|(a, b)| b - a >= 3 * max) {
             assert!(
-                out.events.iter().any(|e| {
+                found.iter().any(|e| {
                     let (s, t) = (e.event.start_index as i64, e.event.end_index as i64);
                     s < b && t >= a
                 }),
                 "{:?}: burst {a}..{b} not found in {:?}",
                 config.policy,
-                out.events
+                found
             );
         }
-        for e in &out.events {
+        for e in &found {
             let (s, t) = (e.event.start_index as i64, e.event.end_index as i64);
             assert!(
                 bursts.iter().any(|&(a, b)| s < b + max && t + max >= a),
@@ -198,5 +189,48 @@ fn every_event_ends_after_it_starts_and_long_bursts_are_found() {
                 config.policy
             );
         }
+    }
+}
+
+/// A loud start is not taken for the sensor's normal noise (issue 10, found on the ADIS16405
+/// recording: a knock in its first 8 s sat in the detector's warm-up, and accel_z's undisturbed
+/// noise after it was reported "quieter ×0.6" from 11.8 to 142.6 s, in three events).
+///
+/// Here white noise whose first 8 s are 2.5× louder, then 20 min of the same white noise, at the
+/// defaults and with the fixed 171 window: rows quieter than the steady level are learned even
+/// when flagged, so the level comes down within about a warm-up's worth of rows. What is asserted:
+/// the quieter events after the loud start last at most 10 s in all (measured: 4.8 s with the
+/// defaults, 6.3 s with the fixed window; before the change one quieter event ran from 10 s to the
+/// end, 1185 s), and no event lies after the first minute.
+#[test]
+fn a_loud_start_is_not_taken_for_the_normal_noise() {
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let (rate_hz, loud_s, total_s) = (100.0, 8.0, 1200.0);
+    let samples: Vec<ImuSample> = (0..(total_s * rate_hz) as i64)
+        .map(|k| {
+            let sd = if (k as f64) < loud_s * rate_hz { 2.5 } else { 1.0 };
+            ImuSample {
+                stamp_ns: k * 10_000_000,
+                gyro: [sd * rng.sample::<f64, _>(StandardNormal), 0.0, 0.0],
+                accel: [0.0; 3],
+            }
+        })
+        .collect();
+    for (_, config) in defaults_and_fixed_171() {
+        let found = events_on(&[Axis::GyroX], &config, &samples);
+        assert_spans(&found);
+        let quieter_s: f64 = found
+            .iter()
+            .filter(|e| e.event.factor < 1.0)
+            .map(|e| e.event.end_s - e.event.start_s)
+            .sum();
+        eprintln!("{:?}: {} events, quieter for {quieter_s:.1} s: {:?}", config.policy, found.len(), found);
+        assert!(quieter_s <= 10.0, "{:?}: quieter for {quieter_s} s: {:?}", config.policy, found);
+        assert!(
+            found.iter().all(|e| e.event.end_s <= 60.0),
+            "{:?}: an event after the first minute: {:?}",
+            config.policy,
+            found
+        );
     }
 }

@@ -4,7 +4,13 @@
 //! 1. The statistic is the row's Allan variance at the smallest τ of the grid (τ0 for the default
 //!    grids): for an IMU that is the white-noise level, which is what a "noise change" changes.
 //! 2. Its steady level is the robust median ([`RobustLevel`]) of that statistic over the first
-//!    `warmup_rows` rows, then over the rows that are not flagged.
+//!    `warmup_rows` rows, then over the rows that are not flagged or are quieter than the level.
+//!    Why quieter rows too: disturbances (vibration, interference, a knock) add noise, so the level
+//!    is the undisturbed sensor's; a warm-up that caught a disturbance held it too high, and the
+//!    undisturbed noise after it was flagged "quieter" and never learned — an event that did not
+//!    end (the ADIS16405's first 8 s, issue 10; `a_loud_start_is_not_taken_for_the_normal_noise`
+//!    in tests/davar_events.rs). The price: a real fall of the noise is reported only until the
+//!    quieter rows outnumber the louder ones learned before it.
 //! 3. A row is *flagged* when the steady level lies outside the row's own χ² interval at `z`
 //!    standard deviations (two-sided, EDF from [`edf_closed_form`]):
 //!    the row is significantly above or below normal, given how many terms it averaged. The closed
@@ -142,7 +148,9 @@ impl ChangeDetector {
     pub fn push(&mut self, row: &DavarRow, time_of: &dyn Fn(u64) -> f64) -> Option<ChangeEvent> {
         let avar = row.points.first()?.avar;
         let flagged = self.flag(row);
-        if flagged != Some(true) {
+        // Quieter rows are learned even when flagged (rule 2 of the module doc).
+        let quieter = self.level.median().is_some_and(|level| avar < level);
+        if flagged != Some(true) || quieter {
             self.level.push(avar);
         }
         let half = (row.window / 2) as u64;

@@ -29,6 +29,11 @@
 //! all four densities by one factor; the default export applies none and the file says which
 //! factor it holds.
 //!
+//! **N of a sensor with a low-pass.** N is the density of the white rate noise: `white`'s `n`, or
+//! `bandwidth`'s `n` where the model holds the sensor's own low-pass instead (the ADIS16405 and
+//! most MEMS parts, docs/model.md): white noise seen through the filter has that same density below
+//! its cut-off, the band an estimator integrates over. A model with both gives √(n_white² + n_bandwidth²).
+//!
 //! **Format.** Values are rounded to 6 significant digits. The YAML is written by `serde_yaml_ng`. Two adjustments make every reader accept
 //! it: floats get a `.` in the mantissa and a signed exponent (`3.0e-6`, not `3e-6`), because YAML
 //! 1.1 readers — PyYAML, which Kalibr uses — read `3e-6` as a *string*; and the OpenVINS and VINS
@@ -103,8 +108,8 @@ pub enum ExportError {
     /// A format name fdavar does not write.
     #[error("unknown export format '{0}' (known: kalibr, openvins, vins)")]
     UnknownFormat(String),
-    /// An axis's model has no `white` (N) or `random_walk` (K) term.
-    #[error("{axis}: the model has no {effect} term; export needs white (N) and random_walk (K)")]
+    /// An axis's model has no white rate noise (`white` or `bandwidth`) or no `random_walk` (K).
+    #[error("{axis}: the model has no {effect} term; export needs white (N) or bandwidth, and random_walk (K)")]
     MissingTerm {
         /// The axis.
         axis: String,
@@ -147,19 +152,35 @@ pub struct AxisNoise {
     pub k: f64,
 }
 
+/// The effects whose `n` is white rate noise density: `white` itself and `bandwidth` (the same noise
+/// seen through the sensor's low-pass; module doc).
+const WHITE_RATE_NOISE: [&str; 2] = [id::WHITE, id::BANDWIDTH];
+
+/// N of one axis from the `n` of its white rate noise terms (`param(effect)`, `None` where the model
+/// lacks that effect): √(Σ n²) over those it holds.
+///
+/// # Errors
+/// [`ExportError::MissingTerm`] (`white`) when it holds neither.
+fn white_density(axis: &str, param: impl Fn(&'static str) -> Option<f64>) -> Result<f64, ExportError> {
+    let n: Vec<f64> = WHITE_RATE_NOISE.iter().filter_map(|&effect| param(effect)).collect();
+    if n.is_empty() {
+        return Err(ExportError::MissingTerm { axis: axis.to_string(), effect: id::WHITE });
+    }
+    Ok(n.iter().map(|v| v * v).sum::<f64>().sqrt())
+}
+
 impl AxisNoise {
-    /// N and K of a fitted model (its `white` and `random_walk` terms).
+    /// N and K of a fitted model: N from its `white` or `bandwidth` term (module doc), K from its
+    /// `random_walk`.
     ///
     /// # Errors
     /// [`ExportError::MissingTerm`] when the model lacks one of them.
     pub fn from_fit(fit: &FittedModel) -> Result<Self, ExportError> {
-        let value = |effect: &'static str| {
-            fit.term(effect)
-                .and_then(|t| t.params.first())
-                .map(|p| p.value)
-                .ok_or_else(|| ExportError::MissingTerm { axis: fit.axis.name().to_string(), effect })
-        };
-        Ok(AxisNoise { axis: fit.axis.name().to_string(), n: value(id::WHITE)?, k: value(id::RANDOM_WALK)? })
+        let axis = fit.axis.name();
+        let param = |effect: &str, name: &str| fit.term(effect).and_then(|t| t.param(name)).map(|p| p.value);
+        let k = param(id::RANDOM_WALK, "k")
+            .ok_or_else(|| ExportError::MissingTerm { axis: axis.to_string(), effect: id::RANDOM_WALK })?;
+        Ok(AxisNoise { axis: axis.to_string(), n: white_density(axis, |effect| param(effect, "n"))?, k })
     }
 
     /// The axes of the JSON that `fdavar fit --json` or `diagnose --json` printed.
@@ -168,7 +189,8 @@ impl AxisNoise {
     ///
     /// # Errors
     /// [`ExportError::Json`] when the document has no `axes` array or an axis lacks its name;
-    /// [`ExportError::MissingTerm`] when an axis lacks `white.n` or `random_walk.k`.
+    /// [`ExportError::MissingTerm`] when an axis lacks both `white.n` and `bandwidth.n`, or
+    /// `random_walk.k`.
     pub fn from_report_json(doc: &Value) -> Result<Vec<Self>, ExportError> {
         let axes = doc
             .get("axes")
@@ -182,13 +204,13 @@ impl AxisNoise {
                     .and_then(Value::as_str)
                     .ok_or_else(|| ExportError::Json(format!("axes[{i}] has no \"axis\" name")))?
                     .to_string();
-                let param = |effect: &'static str, name: &str| {
+                let param = |effect: &str, name: &str| {
                     let p = &a["coefficients"][effect][name];
-                    p.as_f64()
-                        .or_else(|| p["value"].as_f64())
-                        .ok_or_else(|| ExportError::MissingTerm { axis: axis.clone(), effect })
+                    p.as_f64().or_else(|| p["value"].as_f64())
                 };
-                Ok(AxisNoise { n: param(id::WHITE, "n")?, k: param(id::RANDOM_WALK, "k")?, axis: axis.clone() })
+                let k = param(id::RANDOM_WALK, "k")
+                    .ok_or_else(|| ExportError::MissingTerm { axis: axis.clone(), effect: id::RANDOM_WALK })?;
+                Ok(AxisNoise { n: white_density(&axis, |effect| param(effect, "n"))?, k, axis: axis.clone() })
             })
             .collect()
     }

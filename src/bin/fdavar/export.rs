@@ -32,7 +32,8 @@ pub struct Args {
     /// calibration guide suggests 10 to 20. Default 1: as measured.
     #[arg(long, default_value_t = 1.0, value_name = "X")]
     pub inflate: f64,
-    /// Model to fit a bag with; must hold N (white) and K (random_walk).
+    /// Model to fit a bag with; must hold N (white) or bandwidth (a sensor's low-pass: its n is
+    /// then the noise density), and K (random_walk).
     #[arg(long, default_value = ModelSpec::DEFAULT, value_parser = crate::model_spec_arg)]
     pub model: String,
     /// IMU topic: read from the bag and written to the file (default: the bag's only
@@ -87,11 +88,12 @@ fn is_json(path: &Path) -> bool {
 /// Fits every axis of the bag with the model, as `fdavar fit` does.
 fn from_bag(args: &Args) -> anyhow::Result<(ImuNoise, Outcome)> {
     let spec = ModelSpec::parse(&args.model).context("invalid --model")?;
-    for id in [effects::id::WHITE, effects::id::RANDOM_WALK] {
-        if !spec.ids().iter().any(|e| e == id) {
-            let alias = effects::find(id).and_then(|k| k.alias()).unwrap_or(id);
-            return Err(UsageError(format!("--model {}: export needs {alias} ({id})", args.model)).into());
-        }
+    let holds = |id: &str| spec.ids().iter().any(|e| e == id);
+    if !holds(effects::id::WHITE) && !holds(effects::id::BANDWIDTH) {
+        return Err(UsageError(format!("--model {}: export needs N (white) or bandwidth", args.model)).into());
+    }
+    if !holds(effects::id::RANDOM_WALK) {
+        return Err(UsageError(format!("--model {}: export needs K (random_walk)", args.model)).into());
     }
     let topic = BagReader::open(&args.input)
         .with_context(|| format!("cannot open {}", args.input.display()))?

@@ -161,7 +161,8 @@ pub struct MonitorSettings {
     pub diagnosis_period_s: f64,
     /// The largest share of one core the diagnosis may take, averaged over a round and the wait
     /// after it: a round that took C seconds starts the next no sooner than C/share seconds (wall
-    /// clock) after its own start. 1: only `diagnosis_period_s` paces the rounds.
+    /// clock) after its own start. 1: only `diagnosis_period_s` paces the rounds. Default 0.01:
+    /// docs/ros.md ("The diagnosis has a CPU budget") says why, and how old an answer gets.
     pub diagnosis_cpu_share: f64,
 }
 
@@ -171,7 +172,7 @@ impl Default for MonitorSettings {
             stale_timeout_s: 1.0,
             fit_error_warn: 3.0,
             diagnosis_period_s: 10.0,
-            diagnosis_cpu_share: 0.05,
+            diagnosis_cpu_share: 0.01,
         }
     }
 }

@@ -10,10 +10,16 @@
 //! this process (ros2-client, best effort), and reads
 //! - CPU share: the node's user+system time (/proc/PID/stat) over the publishing wall time;
 //! - latency: the node's own `latency_p50_ms` / `latency_p99_ms` from `/diagnostics` (time from
-//!   taking a message off DDS to the end of its analysis update, over the last 8192 samples);
+//!   RustDDS's reception stamp of a message to the end of its analysis update, over the last 8192
+//!   samples);
 //! - samples counted and drops (a full analysis queue);
 //! - the cost of the latest whole-run diagnosis of gyro_x (`diagnosis_ms`), which runs on the
 //!   analysis thread, one axis per publication.
+//!
+//! - the same CPU share per thread (/proc/PID/task/*/stat; threads that used none are left out).
+//!
+//! `FDAVAR_NODE=PATH` runs that build of the node instead (interleaved A/B runs against a copy
+//! of the previous build).
 //!
 //! Not a test: numbers depend on the machine; nothing is asserted.
 
@@ -28,13 +34,34 @@ use std::time::{Duration, Instant};
 
 const DOMAIN: u16 = 90;
 
-fn cpu_ticks(pid: u32) -> Option<u64> {
-    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+/// The user + system ticks of a /proc `stat` file (a process's or a thread's), and its name.
+fn stat_ticks(path: &str) -> Option<(String, u64)> {
+    let stat = std::fs::read_to_string(path).ok()?;
     // Fields after the command name (which may hold spaces) start after the last ')'.
+    let name = stat[stat.find('(')? + 1..stat.rfind(')')?].to_string();
     let rest = &stat[stat.rfind(')')? + 2..];
     let fields: Vec<&str> = rest.split_whitespace().collect();
     // utime and stime are fields 14 and 15 of stat, i.e. 11 and 12 after the state field.
-    Some(fields.get(11)?.parse::<u64>().ok()? + fields.get(12)?.parse::<u64>().ok()?)
+    let ticks = fields.get(11)?.parse::<u64>().ok()? + fields.get(12)?.parse::<u64>().ok()?;
+    Some((name, ticks))
+}
+
+fn cpu_ticks(pid: u32) -> Option<u64> {
+    stat_ticks(&format!("/proc/{pid}/stat")).map(|(_, t)| t)
+}
+
+/// Each thread of `pid`: (thread id, name, user + system ticks).
+fn thread_ticks(pid: u32) -> Vec<(String, String, u64)> {
+    let Ok(dir) = std::fs::read_dir(format!("/proc/{pid}/task")) else {
+        return Vec::new();
+    };
+    dir.flatten()
+        .filter_map(|e| {
+            let tid = e.file_name().to_string_lossy().into_owned();
+            let (name, ticks) = stat_ticks(&format!("/proc/{pid}/task/{tid}/stat"))?;
+            Some((tid, name, ticks))
+        })
+        .collect()
 }
 
 fn main() {
@@ -48,7 +75,10 @@ fn main() {
     let diagnosis = format!("diagnosis_period_s:={diagnosis_s:?}");
     let sinusoid: f64 = args.get(3).and_then(|a| a.parse().ok()).unwrap_or(0.0);
 
-    let mut child = Command::new(env!("CARGO_BIN_EXE_fdavar_node"))
+    // FDAVAR_NODE runs another build (e.g. a copy of the previous one, for interleaved A/B runs).
+    let binary =
+        std::env::var("FDAVAR_NODE").unwrap_or_else(|_| env!("CARGO_BIN_EXE_fdavar_node").into());
+    let mut child = Command::new(&binary)
         .args([
             "--ros-args",
             "-p",
@@ -95,6 +125,7 @@ fn main() {
     let period = Duration::from_secs_f64(1.0 / rate_hz);
     let n = (seconds * rate_hz) as u64;
     let ticks0 = cpu_ticks(pid).expect("read /proc");
+    let threads0 = thread_ticks(pid);
     let start = Instant::now();
     let mut x = 0x2545_f491_4f6c_dd1d_u64;
     for k in 0..n {
@@ -119,7 +150,16 @@ fn main() {
     let wall = start.elapsed().as_secs_f64();
     let ticks1 = cpu_ticks(pid).expect("read /proc");
     let cpu_s = (ticks1 - ticks0) as f64 / 100.0; // USER_HZ = 100 on Linux
-                                                  // The latest /diagnostics after the node has published at least once more.
+    let mut per_thread: Vec<(String, f64)> = thread_ticks(pid)
+        .into_iter()
+        .map(|(tid, name, ticks)| {
+            let before = threads0.iter().find(|t| t.0 == tid).map_or(0, |t| t.2);
+            (name, (ticks - before) as f64 / 100.0 / wall * 100.0)
+        })
+        .filter(|(_, share)| *share > 0.0)
+        .collect();
+    per_thread.sort_by(|a, b| b.1.total_cmp(&a.1));
+    // The latest /diagnostics after the node has published at least once more.
     std::thread::sleep(Duration::from_millis(1500));
     let mut last = None;
     while let Ok(Some((msg, _))) = diagnostics.take() {
@@ -151,4 +191,9 @@ fn main() {
         get("diagnosis_ms"),
         get("suggestions"),
     );
+    let threads: Vec<String> = per_thread
+        .iter()
+        .map(|(name, share)| format!("{name} {share:.2} %"))
+        .collect();
+    println!("  per thread: {} ({binary})", threads.join(", "));
 }

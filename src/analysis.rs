@@ -128,6 +128,21 @@ impl Analysis {
         &self.out.rows
     }
 
+    /// Moves each row the last [`Analysis::push`] completed into `keep`, in order; a row `keep`
+    /// hands back (one it no longer needs) lends its memory to a later row.
+    ///
+    /// Why: a caller that keeps the latest row of each axis (the node) would otherwise copy every
+    /// row, and every row would allocate its points afresh: one row per axis and sample.
+    pub fn hand_rows(&mut self, mut keep: impl FnMut(AxisRow) -> Option<AxisRow>) {
+        let mut rows = std::mem::take(&mut self.out.rows);
+        for row in rows.drain(..) {
+            if let (Some(old), Some(p)) = (keep(row), self.rows.as_mut()) {
+                p.recycle(old);
+            }
+        }
+        self.out.rows = rows;
+    }
+
     /// Feeds one temperature reading (evidence for the `temperature` effect).
     pub fn push_temperature(&mut self, reading: &TemperatureSample) {
         self.record.push_temperature(reading);

@@ -12,7 +12,7 @@ use super::monitor::{Change, RowEngine, WholeRun};
 use crate::analysis::{Analysis, AnalysisConfig};
 use crate::model::ModelSpec;
 use crate::msgs::fdavar_msgs::AxisState;
-use crate::pipeline::{DavarConfig, PipelineError};
+use crate::pipeline::{AxisRow, DavarConfig, PipelineError};
 use crate::results::axis_state;
 use crate::signal::{Axis, ImuSample, TemperatureSample};
 
@@ -24,6 +24,8 @@ pub struct AnalysisEngine {
     global: ModelSpec,
     /// The `model.<axis>` parameters.
     overrides: [Option<ModelSpec>; 6],
+    /// The latest row of each axis, with the rows' τ0 when it was made.
+    latest: [Option<(AxisRow, f64)>; 6],
 }
 
 /// Parses a model spec given as a parameter.
@@ -55,6 +57,7 @@ impl AnalysisEngine {
             analysis: Analysis::new(analysis_config)?,
             global,
             overrides,
+            latest: Default::default(),
         })
     }
 
@@ -69,16 +72,26 @@ impl AnalysisEngine {
 }
 
 impl RowEngine for AnalysisEngine {
-    fn push(&mut self, sample: &ImuSample) -> Vec<(Axis, AxisState)> {
-        let rows = self.analysis.push(sample);
-        if rows.is_empty() {
-            return Vec::new();
+    fn push(&mut self, sample: &ImuSample, mut every_row: Option<&mut Vec<AxisState>>) {
+        if self.analysis.push(sample).is_empty() {
+            return;
         }
-        let rows = rows.to_vec();
         let tau0 = self.analysis.row_tau0().unwrap_or(f64::NAN);
-        rows.iter()
-            .map(|row| (row.axis, axis_state(row, tau0)))
-            .collect()
+        let latest = &mut self.latest;
+        self.analysis.hand_rows(|row| {
+            if let Some(rows) = every_row.as_mut() {
+                rows.push(axis_state(&row, tau0));
+            }
+            latest[row.axis.index()]
+                .replace((row, tau0))
+                .map(|(old, _)| old)
+        });
+    }
+
+    fn latest(&self, axis: Axis) -> Option<AxisState> {
+        self.latest[axis.index()]
+            .as_ref()
+            .map(|(row, tau0)| axis_state(row, *tau0))
     }
 
     fn push_temperature(&mut self, t: &TemperatureSample) {

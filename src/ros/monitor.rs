@@ -5,8 +5,8 @@
 //! `~/<axis>/state` carry) is a function of the samples pushed in and the time given, so it is
 //! tested without DDS. The ROS side only moves messages in and out.
 //!
-//! Samples reach the F-DAVAR engine through [`RowEngine`]; the monitor keeps the latest row of each
-//! axis and publishes it with the counters.
+//! Samples reach the F-DAVAR engine through [`RowEngine`]; the engine keeps the latest row of each
+//! axis, and the monitor publishes it with the counters.
 
 use crate::msgs::builtin_interfaces::Time;
 use crate::msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue, Level};
@@ -22,9 +22,16 @@ use crate::signal::{Axis, ImuSample, PeriodEstimator, StampCheck, StampClass, Te
 /// [`crate::analysis::Analysis`], the path `fdavar fit/diagnose` run offline) owns the maths. Rows
 /// carry their analysis time, which lags the newest sample by half a window.
 pub trait RowEngine: Send {
-    /// Feeds one checked sample (stamps strictly increasing); returns the rows that became
-    /// complete, as (axis, state with the row fields filled).
-    fn push(&mut self, sample: &ImuSample) -> Vec<(Axis, AxisState)>;
+    /// Feeds one checked sample (stamps strictly increasing). The engine keeps the latest row of
+    /// each axis ([`RowEngine::latest`]); when `every_row` is given, it also appends there the
+    /// state message of each row this sample completed, in order.
+    ///
+    /// Why not return each row as a message: a row is completed on every axis at every sample,
+    /// and the node publishes a few per second; building six messages per sample (their vectors
+    /// and strings) cost more than the rows themselves at 2 kHz. Only `dump_json` needs them all.
+    fn push(&mut self, sample: &ImuSample, every_row: Option<&mut Vec<AxisState>>);
+    /// The state message (row fields filled) of the latest row of `axis`, if any.
+    fn latest(&self, axis: Axis) -> Option<AxisState>;
     /// Feeds one reading of the temperature topic (only when the node subscribes it).
     fn push_temperature(&mut self, _t: &TemperatureSample) {}
     /// Applies a live parameter change (model, window settings).
@@ -154,7 +161,8 @@ pub struct MonitorSettings {
     pub diagnosis_period_s: f64,
     /// The largest share of one core the diagnosis may take, averaged over a round and the wait
     /// after it: a round that took C seconds starts the next no sooner than C/share seconds (wall
-    /// clock) after its own start. 1: only `diagnosis_period_s` paces the rounds.
+    /// clock) after its own start. 1: only `diagnosis_period_s` paces the rounds. Default 0.01:
+    /// docs/ros.md ("The diagnosis has a CPU budget") says why, and how old an answer gets.
     pub diagnosis_cpu_share: f64,
 }
 
@@ -164,7 +172,7 @@ impl Default for MonitorSettings {
             stale_timeout_s: 1.0,
             fit_error_warn: 3.0,
             diagnosis_period_s: 10.0,
-            diagnosis_cpu_share: 0.05,
+            diagnosis_cpu_share: 0.01,
         }
     }
 }
@@ -190,7 +198,6 @@ pub struct Monitor {
     /// Stamps in the current rate window: (first, last, count).
     rate_window: Option<(i64, i64, u64)>,
     rate_hz: Option<f64>,
-    latest: [Option<AxisState>; 6],
     frame_id: String,
     /// Bad inputs since the last publish, per axis, for the level.
     recent_non_finite: [u64; 6],
@@ -236,7 +243,6 @@ impl Monitor {
             last_receive_ns: None,
             rate_window: None,
             rate_hz: None,
-            latest: Default::default(),
             frame_id: String::new(),
             recent_non_finite: [0; 6],
             new_rows: None,
@@ -266,7 +272,6 @@ impl Monitor {
                     .or_else(|| payload.downcast_ref::<String>().cloned())
                     .unwrap_or_else(|| "a panic without a message".to_string());
                 self.engine = None;
-                self.latest = Default::default();
                 self.whole_run = Default::default();
                 self.diagnosis_due.clear();
                 self.engine_failure = Some(why);
@@ -348,7 +353,7 @@ impl Monitor {
             .last_round
             .is_none_or(|(started, spent)| started.elapsed().as_secs_f64() >= spent / share);
         // A round starts once some axis has a row: before that the run is too short to diagnose.
-        let any_row = self.latest.iter().any(Option::is_some);
+        let any_row = Axis::ALL.iter().any(|&axis| self.has_row(axis));
         if due && within_budget && any_row && self.diagnosis_due.is_empty() {
             self.last_diagnosis_ns = Some(now_ns);
             self.diagnosis_due = Axis::ALL.iter().rev().copied().collect();
@@ -356,7 +361,7 @@ impl Monitor {
         }
         // Axes still without a row sit this round out.
         while let Some(axis) = self.diagnosis_due.pop() {
-            if self.latest[axis.index()].is_some() {
+            if self.has_row(axis) {
                 let start = std::time::Instant::now();
                 // Too short a run keeps the previous answer (none at first).
                 if let Some(Ok(answer)) = self.supervised(|e| e.diagnose(axis)) {
@@ -430,16 +435,28 @@ impl Monitor {
         if self.classify(&sample, &mut log) {
             self.counters.samples += 1;
         }
-        if let Some(made) = self.supervised(|e| e.push(&sample)) {
-            for (axis, mut state) in made {
+        let mut rows = self.new_rows.take();
+        let before = rows.as_ref().map_or(0, Vec::len);
+        self.supervised(|e| e.push(&sample, rows.as_mut()));
+        if let Some(rows) = rows.as_mut() {
+            for state in &mut rows[before..] {
                 state.header.frame_id.clone_from(&self.frame_id);
-                if let Some(rows) = self.new_rows.as_mut() {
-                    rows.push(state.clone());
-                }
-                self.latest[axis.index()] = Some(state);
             }
         }
+        self.new_rows = rows;
         log
+    }
+
+    /// Whether the engine has a row of `axis` yet.
+    fn has_row(&self, axis: Axis) -> bool {
+        self.latest(axis).is_some()
+    }
+
+    /// The engine's latest row of `axis` as a state message, with the stream's frame id.
+    fn latest(&self, axis: Axis) -> Option<AxisState> {
+        let mut state = self.engine.as_ref()?.latest(axis)?;
+        state.header.frame_id.clone_from(&self.frame_id);
+        Some(state)
     }
 
     /// The stream's clock jumped (back for good, or forward past the longest gap): counted, logged
@@ -564,8 +581,7 @@ impl Monitor {
         for axis in Axis::ALL {
             let i = axis.index();
             // The latest row, with the latest whole-run answer of its axis.
-            let fitted = self.latest[i].as_ref().map(|s| {
-                let mut s = s.clone();
+            let fitted = self.latest(axis).map(|mut s| {
                 if let Some(w) = &self.whole_run[i] {
                     w.fill(&mut s);
                 }
@@ -601,7 +617,7 @@ impl Monitor {
                 )
             } else if let Some(why) = &stale {
                 (Level::Error, why.clone())
-            } else if self.recent_non_finite[i] > 0 && self.latest[i].is_none() {
+            } else if self.recent_non_finite[i] > 0 && latest.is_none() {
                 (
                     Level::Error,
                     "broken input: non-finite values on this axis".to_string(),
@@ -801,10 +817,25 @@ mod tests {
             .value
     }
 
+    /// The latest state of each axis, kept as an engine keeps its rows (for the test engines).
+    #[derive(Default)]
+    struct Kept([Option<AxisState>; 6]);
+    impl Kept {
+        fn keep(&mut self, made: Vec<(Axis, AxisState)>, every_row: Option<&mut Vec<AxisState>>) {
+            if let Some(rows) = every_row {
+                rows.extend(made.iter().map(|(_, s)| s.clone()));
+            }
+            for (axis, state) in made {
+                self.0[axis.index()] = Some(state);
+            }
+        }
+    }
+
     /// One engine row per sample, so that the tests see what reaches the engine.
-    struct Echo;
+    #[derive(Default)]
+    struct Echo(Kept);
     impl RowEngine for Echo {
-        fn push(&mut self, s: &ImuSample) -> Vec<(Axis, AxisState)> {
+        fn push(&mut self, s: &ImuSample, every_row: Option<&mut Vec<AxisState>>) {
             let state = AxisState {
                 axis: "gyro_x".into(),
                 analysis_time_s: s.stamp_ns as f64 * 1e-9,
@@ -814,7 +845,10 @@ mod tests {
                 fit_error: 1.0,
                 ..AxisState::default()
             };
-            vec![(Axis::GyroX, state)]
+            self.0.keep(vec![(Axis::GyroX, state)], every_row);
+        }
+        fn latest(&self, axis: Axis) -> Option<AxisState> {
+            self.0 .0[axis.index()].clone()
         }
         fn reconfigure(&mut self, _: Change) -> Result<(), String> {
             Ok(())
@@ -823,7 +857,7 @@ mod tests {
 
     #[test]
     fn each_bad_input_kind_is_counted_and_logged_once() {
-        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(Echo)));
+        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(Echo::default())));
         m.record_rows();
         let mut logged = Vec::new();
         let mut t = 0;
@@ -860,7 +894,7 @@ mod tests {
     /// engine's intake does, logs it once and reports WARN at the next publication.
     #[test]
     fn a_clock_that_goes_back_re_anchors_with_a_warning() {
-        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(Echo)));
+        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(Echo::default())));
         let mut logged = Vec::new();
         let mut t = 1_000 * MS;
         for _ in 0..100 {
@@ -891,7 +925,7 @@ mod tests {
     /// 11.7 h at 100 Hz) re-anchors as one that went back: counted, WARN once, nothing dropped.
     #[test]
     fn a_clock_that_jumps_forward_re_anchors_with_a_warning() {
-        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(Echo)));
+        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(Echo::default())));
         let mut t = 1_000 * MS;
         for _ in 0..100 {
             t += 10 * MS;
@@ -912,7 +946,7 @@ mod tests {
     /// Issue 13: ±1e300 values count as dropped values (WARN), like NaN.
     #[test]
     fn absurd_values_are_counted_like_non_finite_ones() {
-        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(Echo)));
+        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(Echo::default())));
         let mut t = 0;
         for k in 0..100 {
             t += 10 * MS;
@@ -935,7 +969,7 @@ mod tests {
     /// clean stream afterwards is OK again.
     #[test]
     fn dropped_input_above_its_share_warns_or_errs_and_clears() {
-        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(Echo)));
+        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(Echo::default())));
         let mut t = 1_000_000 * MS;
         let good = |m: &mut Monitor, t: &mut i64, n: usize| {
             for _ in 0..n {
@@ -993,12 +1027,15 @@ mod tests {
     }
 
     /// Panics on the `at`th sample pushed, and in `diagnose`.
-    struct PanicsAt(u64);
+    struct PanicsAt(u64, Echo);
     impl RowEngine for PanicsAt {
-        fn push(&mut self, s: &ImuSample) -> Vec<(Axis, AxisState)> {
+        fn push(&mut self, s: &ImuSample, every_row: Option<&mut Vec<AxisState>>) {
             self.0 -= 1;
             assert!(self.0 > 0, "engine bug at stamp {}", s.stamp_ns);
-            Echo.push(s)
+            self.1.push(s, every_row);
+        }
+        fn latest(&self, axis: Axis) -> Option<AxisState> {
+            self.1.latest(axis)
         }
         fn reconfigure(&mut self, _: Change) -> Result<(), String> {
             Ok(())
@@ -1010,7 +1047,7 @@ mod tests {
     /// the counters and publications go on, and a live change is answered with the reason.
     #[test]
     fn a_panicking_engine_is_reported_as_error_and_the_monitor_keeps_serving() {
-        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(PanicsAt(150))));
+        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(PanicsAt(150, Echo::default()))));
         let mut t = 0;
         for _ in 0..100 {
             t += 10 * MS;
@@ -1098,7 +1135,7 @@ mod tests {
 
     #[test]
     fn rows_carry_the_counters_and_set_the_level() {
-        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(Echo)));
+        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(Echo::default())));
         let mut t = 0;
         for _ in 0..10 {
             t += 10 * MS;
@@ -1114,10 +1151,14 @@ mod tests {
 
     /// Rows on every axis; a diagnosis that names `sinusoid` on gyro_x and counts its calls.
     /// The second field is what each diagnosis costs (a sleep).
-    struct Diagnosing(std::sync::Arc<std::sync::Mutex<Vec<Axis>>>, std::time::Duration);
+    struct Diagnosing(
+        std::sync::Arc<std::sync::Mutex<Vec<Axis>>>,
+        std::time::Duration,
+        Kept,
+    );
     impl RowEngine for Diagnosing {
-        fn push(&mut self, s: &ImuSample) -> Vec<(Axis, AxisState)> {
-            Axis::ALL
+        fn push(&mut self, s: &ImuSample, every_row: Option<&mut Vec<AxisState>>) {
+            let made = Axis::ALL
                 .iter()
                 .map(|&a| {
                     let state = AxisState {
@@ -1128,7 +1169,11 @@ mod tests {
                     };
                     (a, state)
                 })
-                .collect()
+                .collect();
+            self.2.keep(made, every_row);
+        }
+        fn latest(&self, axis: Axis) -> Option<AxisState> {
+            self.2 .0[axis.index()].clone()
         }
         fn reconfigure(&mut self, _: Change) -> Result<(), String> {
             Ok(())
@@ -1161,7 +1206,7 @@ mod tests {
             stale_timeout_s: 100.0,
             ..MonitorSettings::default()
         };
-        let mut m = Monitor::new(settings, Some(Box::new(Diagnosing(calls.clone(), std::time::Duration::ZERO))));
+        let mut m = Monitor::new(settings, Some(Box::new(Diagnosing(calls.clone(), std::time::Duration::ZERO, Kept::default()))));
         let mut t = 0;
         let mut reports = Vec::new();
         // 10 s of samples at 100 Hz, a report every 0.1 s.
@@ -1202,7 +1247,7 @@ mod tests {
             diagnosis_cpu_share: 0.1,
             ..MonitorSettings::default()
         };
-        let engine = Diagnosing(calls.clone(), Duration::from_millis(10));
+        let engine = Diagnosing(calls.clone(), Duration::from_millis(10), Kept::default());
         let mut m = Monitor::new(settings, Some(Box::new(engine)));
         let mut t = 0;
         // Reports as fast as they come, 10 ms of node time apart: the period never holds back.

@@ -1,12 +1,21 @@
 //! The ROS 2 plumbing of `fdavar_node`: context, node, parameters, subscriptions, the analysis thread,
 //! publishers.
 //!
-//! Data flow: the receive loop (the thread that calls [`run`]) takes `imu` messages off DDS and
-//! `try_send`s them into a bounded queue; a full queue drops the sample and counts it, so the
-//! subscription never blocks and memory never grows. The analysis thread owns the [`Monitor`]
-//! (checks, counters, the F-DAVAR engine) and the publishers, and publishes `/diagnostics` and
-//! `~/<axis>/state` at `publish_rate_hz`. Parameter changes arrive from ros2-client's parameter
-//! services on a channel and apply between two samples.
+//! Data flow: the receive loop (the thread that calls [`run`]) takes `imu` messages off DDS. The
+//! [`Monitor`] (checks, counters, the F-DAVAR engine) and the publishers sit behind one mutex. When
+//! the analysis is free and nothing waits in the queue, the receive loop analyses the message
+//! itself; otherwise (the analysis thread is publishing or diagnosing) it `try_send`s it into a
+//! bounded queue that the analysis thread drains, in order; a full queue drops the sample and
+//! counts it, so the subscription never blocks and memory never grows. The analysis thread
+//! publishes `/diagnostics` and `~/<axis>/state` at `publish_rate_hz` (and runs the whole-run
+//! diagnosis then). Parameter changes arrive from ros2-client's parameter services on a channel
+//! and apply between two samples.
+//!
+//! Why the receive loop analyses when it can: handing every message to the analysis thread woke
+//! a second thread per message (a futex wake and a context switch on each side); the F-DAVAR
+//! update of six axes costs less than that hand-off. The queue stays for the times the analysis
+//! is busy, so that a diagnosis never blocks the subscription (docs/ros.md, "Node at 2 kHz" in
+//! README has the measured gain).
 
 use super::args::RosArgs;
 use super::dump::DumpWriter;
@@ -27,9 +36,9 @@ use ros2_client::{
 };
 use std::collections::BTreeMap;
 use std::pin::Pin;
-use std::sync::atomic::{AtomicBool, AtomicI64, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI64, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, SyncSender, TrySendError};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 use std::task::{Context as TaskContext, Poll as TaskPoll};
 use std::time::{Duration, Instant};
 
@@ -200,8 +209,10 @@ enum Input {
         sample: ImuSample,
         frame_id: String,
         receive_ns: i64,
-        /// When the receive loop took it off DDS (for the receive-to-update latency).
-        received: Instant,
+        /// When DDS received it, wall-clock ns since the Unix epoch (RustDDS stamps each sample
+        /// as its participant thread takes it off the socket): the receive-to-update latency
+        /// counts from there, the wait for the receive loop's wake-up included.
+        arrived_ns: i64,
     },
     Temperature(crate::signal::TemperatureSample),
 }
@@ -267,9 +278,7 @@ impl NodeClock {
     fn now_ns(&self) -> i64 {
         match &self.sim {
             Some(t) => t.load(Ordering::Relaxed),
-            None => std::time::SystemTime::now()
-                .duration_since(std::time::UNIX_EPOCH)
-                .map_or(0, |d| d.as_nanos() as i64),
+            None => wall_ns(),
         }
     }
 }
@@ -498,11 +507,19 @@ pub fn run(
             ring: Vec::new(),
             next: 0,
         },
+        params: param_rx,
     };
-    let analysis_thread = std::thread::Builder::new()
-        .name("fdavar-analysis".into())
-        .spawn(move || analysis.run(rx, param_rx))
-        .map_err(|e| ros_err("analysis thread")(e.to_string()))?;
+    let shared = Arc::new(Shared {
+        analysis: Mutex::new(analysis),
+        queued: AtomicUsize::new(0),
+    });
+    let analysis_thread = {
+        let shared = Arc::clone(&shared);
+        std::thread::Builder::new()
+            .name("fdavar-analysis".into())
+            .spawn(move || analysis_loop(&shared, &rx))
+            .map_err(|e| ros_err("analysis thread")(e.to_string()))?
+    };
     log.info(&format!(
         "fdavar_node {} on domain {}: imu '{imu_name}' ({}, depth {depth}), queue {queue_size}",
         node.fully_qualified_name(),
@@ -520,6 +537,7 @@ pub fn run(
         clock_sub.as_ref(),
         sim_time.as_deref(),
         &clock,
+        &shared,
         &tx,
         &drops,
         &stop,
@@ -615,17 +633,18 @@ fn take_ready<M>(
         &mut impl Stream<Item = ros2_client::ReadResult<(M, ros2_client::MessageInfo)>>,
     >,
     cx: &mut TaskContext<'_>,
-    mut each: impl FnMut(ros2_client::ReadResult<M>) -> bool,
+    mut each: impl FnMut(ros2_client::ReadResult<(M, ros2_client::MessageInfo)>) -> bool,
 ) -> bool {
     while let TaskPoll::Ready(Some(read)) = stream.as_mut().poll_next(cx) {
-        if !each(read.map(|(msg, _)| msg)) {
+        if !each(read) {
             return false;
         }
     }
     true
 }
 
-/// Takes messages off DDS and queues them; never blocks on the analysis.
+/// Takes messages off DDS and analyses or queues them ([`Shared::hand_over`]); never blocks on the
+/// analysis.
 ///
 /// Why the subscriptions' async streams, polled by hand on this thread, rather than a mio `Poll`
 /// (as before): a stream leaves a waker that DDS calls once per message (one thread unpark),
@@ -640,6 +659,7 @@ fn receive_loop(
     clock_sub: Option<&Subscription<Clock>>,
     sim_time: Option<&AtomicI64>,
     clock: &NodeClock,
+    shared: &Shared,
     tx: &SyncSender<Input>,
     drops: &AtomicU64,
     stop: &AtomicBool,
@@ -654,29 +674,31 @@ fn receive_loop(
     while !stop.load(Ordering::Relaxed) {
         if let (Some(s), Some(t)) = (clock_stream.as_mut().as_pin_mut(), sim_time) {
             take_ready(s, &mut cx, |read| {
-                if let Ok(msg) = read {
+                if let Ok((msg, _)) = read {
                     t.store(msg.clock.to_ns(), Ordering::Relaxed);
                 }
                 true
             });
         }
         let open = take_ready(imu_stream.as_mut(), &mut cx, |read| match read {
-            Ok(msg) => {
+            Ok((msg, info)) => {
                 let input = Input::Imu {
                     // A zero stamp stays zero here: the monitor decides (by the stream's
                     // clock) what it means.
                     sample: msg.to_sample(0),
                     frame_id: msg.header.frame_id,
                     receive_ns: clock.now_ns(),
-                    received: Instant::now(),
+                    arrived_ns: info
+                        .received_timestamp()
+                        .map_or_else(wall_ns, |t| t.to_nanos()),
                 };
-                match tx.try_send(input) {
-                    Ok(()) => true,
-                    Err(TrySendError::Full(_)) => {
+                match shared.hand_over(input, tx) {
+                    HandOver::Done => true,
+                    HandOver::Full => {
                         drops.fetch_add(1, Ordering::Relaxed);
                         true
                     }
-                    Err(TrySendError::Disconnected(_)) => false,
+                    HandOver::Closed => false,
                 }
             }
             Err(e) => {
@@ -695,15 +717,15 @@ fn receive_loop(
         }
         if let Some(s) = temperature_stream.as_mut().as_pin_mut() {
             let open = take_ready(s, &mut cx, |read| {
-                let Ok(msg) = read else { return true };
+                let Ok((msg, _)) = read else { return true };
                 let reading = crate::signal::TemperatureSample {
                     stamp_ns: msg.header.stamp.to_ns(),
                     celsius: msg.temperature,
                 };
                 // A full queue drops the reading: a slow topic, one reading less in a block mean.
                 !matches!(
-                    tx.try_send(Input::Temperature(reading)),
-                    Err(TrySendError::Disconnected(_))
+                    shared.hand_over(Input::Temperature(reading), tx),
+                    HandOver::Closed
                 )
             });
             if !open {
@@ -721,7 +743,118 @@ fn measured_period(bits: &AtomicU64) -> Option<f64> {
     Some(f64::from_bits(bits.load(Ordering::Relaxed))).filter(|p| *p > 0.0)
 }
 
-/// The analysis thread: owns the monitor and the publishers.
+/// Wall-clock time, ns since the Unix epoch (the clock RustDDS stamps received samples with).
+fn wall_ns() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos() as i64)
+}
+
+/// What [`Shared::hand_over`] did with an input.
+enum HandOver {
+    /// Analysed, or queued for the analysis thread.
+    Done,
+    /// The queue was full: the input is dropped.
+    Full,
+    /// The analysis thread has stopped.
+    Closed,
+}
+
+/// The analysis and the count of inputs queued for it but not analysed yet.
+struct Shared {
+    analysis: Mutex<Analysis>,
+    /// Inputs sent into the queue and not yet analysed. Only the receive loop increments it, and
+    /// the analysis thread decrements it under the lock once an input is analysed: so when the
+    /// receive loop holds the lock and reads 0, no earlier input is still waiting, and analysing
+    /// the new one at once keeps the order.
+    queued: AtomicUsize,
+}
+
+impl Shared {
+    /// The analysis, waiting for the lock. A panic while it was held cannot leave the monitor
+    /// half-updated in a way that matters more than stopping would: the engine's own panics are
+    /// caught inside the monitor (reported as ERROR), so the state is used as it is.
+    fn lock(&self) -> MutexGuard<'_, Analysis> {
+        self.analysis
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// The analysis if it is free now and nothing waits in the queue before the new input.
+    fn free(&self) -> Option<MutexGuard<'_, Analysis>> {
+        if self.queued.load(Ordering::SeqCst) != 0 {
+            return None;
+        }
+        let guard = match self.analysis.try_lock() {
+            Ok(g) => g,
+            Err(TryLockError::Poisoned(p)) => p.into_inner(),
+            Err(TryLockError::WouldBlock) => return None,
+        };
+        (self.queued.load(Ordering::SeqCst) == 0).then_some(guard)
+    }
+
+    /// Analyses `input` on the calling thread (the receive loop) when the analysis is free,
+    /// queues it for the analysis thread otherwise.
+    fn hand_over(&self, input: Input, tx: &SyncSender<Input>) -> HandOver {
+        if let Some(mut analysis) = self.free() {
+            analysis.take(input);
+            return HandOver::Done;
+        }
+        self.queued.fetch_add(1, Ordering::SeqCst);
+        match tx.try_send(input) {
+            Ok(()) => HandOver::Done,
+            Err(e) => {
+                self.queued.fetch_sub(1, Ordering::SeqCst);
+                match e {
+                    TrySendError::Full(_) => HandOver::Full,
+                    TrySendError::Disconnected(_) => HandOver::Closed,
+                }
+            }
+        }
+    }
+}
+
+/// The analysis thread: analyses what the receive loop queued (in order), applies parameter
+/// changes, publishes at `publish_rate_hz`; ends once the queue is closed and drained.
+fn analysis_loop(shared: &Shared, rx: &Receiver<Input>) {
+    let mut next_publish = Instant::now() + shared.lock().publish_period;
+    let mut drops_seen = 0;
+    loop {
+        let timeout = next_publish.saturating_duration_since(Instant::now());
+        let first = match rx.recv_timeout(timeout) {
+            Ok(input) => Some(input),
+            Err(RecvTimeoutError::Timeout) => None,
+            Err(RecvTimeoutError::Disconnected) => break,
+        };
+        let mut analysis = shared.lock();
+        let mut next = first;
+        while let Some(input) = next {
+            analysis.take(input);
+            shared.queued.fetch_sub(1, Ordering::SeqCst);
+            next = rx.try_recv().ok();
+        }
+        analysis.apply_controls();
+        if Instant::now() >= next_publish {
+            let drops = analysis.drops.load(Ordering::Relaxed);
+            analysis.publish_round(drops - drops_seen);
+            drops_seen = drops;
+            next_publish += analysis.publish_period;
+            if next_publish < Instant::now() {
+                next_publish = Instant::now() + analysis.publish_period;
+            }
+        }
+    }
+    // The queue is closed and drained (the node is stopping): the last line must be whole.
+    let mut analysis = shared.lock();
+    if let Some(d) = analysis.dump.take() {
+        if let Err(e) = d.finish() {
+            analysis.log.warn(&format!("dump_json: {e}"));
+        }
+    }
+}
+
+/// The analysis: the monitor and the publishers, driven by the receive loop or the analysis
+/// thread (whichever holds [`Shared::analysis`]).
 struct Analysis {
     monitor: Monitor,
     settings: MonitorSettings,
@@ -735,74 +868,65 @@ struct Analysis {
     period_bits: Arc<AtomicU64>,
     dump: Option<DumpWriter>,
     latency: Latency,
+    /// Parameter changes from the parameter services.
+    params: Receiver<Control>,
 }
 
 impl Analysis {
-    fn run(mut self, rx: Receiver<Input>, params: Receiver<Control>) {
-        let mut next_publish = Instant::now() + self.publish_period;
-        let mut drops_seen = 0;
-        loop {
-            let timeout = next_publish.saturating_duration_since(Instant::now());
-            match rx.recv_timeout(timeout) {
-                Ok(Input::Imu {
-                    sample,
-                    frame_id,
-                    receive_ns,
-                    received,
-                }) => {
-                    for line in self.monitor.push(sample, &frame_id, receive_ns) {
-                        self.log.warn(line);
-                    }
-                    self.latency.record(received.elapsed().as_secs_f64());
-                    if let Some(p) = self.monitor.sample_period_s() {
-                        self.period_bits.store(p.to_bits(), Ordering::Relaxed);
-                    }
-                    if self.dump.is_some() {
-                        self.dump_rows();
-                    }
-                }
-                Ok(Input::Temperature(reading)) => self.monitor.push_temperature(&reading),
-                Err(RecvTimeoutError::Timeout) => {}
-                Err(RecvTimeoutError::Disconnected) => break,
-            }
-            while let Ok(control) = params.try_recv() {
-                match control {
-                    Control::Node(name, value) => self.apply(&name, &value),
-                    Control::Davar(name, config) => {
-                        match self.monitor.reconfigure(Change::Davar(config)) {
-                            Ok(()) => self
-                                .log
-                                .info(&format!("{name} changed: DAVAR pipeline restarted")),
-                            Err(e) => self.log.warn(&format!("{name} not applied: {e}")),
-                        }
-                    }
-                }
-            }
-            if Instant::now() >= next_publish {
-                let drops = self.drops.load(Ordering::Relaxed);
-                if let Some(line) = self.monitor.add_drops(drops - drops_seen) {
+    /// One input into the monitor, then the parameter changes waiting (between two samples).
+    fn take(&mut self, input: Input) {
+        match input {
+            Input::Imu {
+                sample,
+                frame_id,
+                receive_ns,
+                arrived_ns,
+            } => {
+                for line in self.monitor.push(sample, &frame_id, receive_ns) {
                     self.log.warn(line);
                 }
-                drops_seen = drops;
-                self.publish();
-                // Rows reach the file at each publication, so that it can be read while the
-                // node runs.
-                if let Some(Err(e)) = self.dump.as_mut().map(DumpWriter::flush) {
-                    self.log
-                        .warn(&format!("dump_json: {e}; no more rows are written"));
-                    self.dump = None;
+                self.latency.record((wall_ns() - arrived_ns) as f64 * 1e-9);
+                if let Some(p) = self.monitor.sample_period_s() {
+                    self.period_bits.store(p.to_bits(), Ordering::Relaxed);
                 }
-                next_publish += self.publish_period;
-                if next_publish < Instant::now() {
-                    next_publish = Instant::now() + self.publish_period;
+                if self.dump.is_some() {
+                    self.dump_rows();
+                }
+            }
+            Input::Temperature(reading) => self.monitor.push_temperature(&reading),
+        }
+        self.apply_controls();
+    }
+
+    /// Applies the parameter changes that have arrived.
+    fn apply_controls(&mut self) {
+        while let Ok(control) = self.params.try_recv() {
+            match control {
+                Control::Node(name, value) => self.apply(&name, &value),
+                Control::Davar(name, config) => {
+                    match self.monitor.reconfigure(Change::Davar(config)) {
+                        Ok(()) => self
+                            .log
+                            .info(&format!("{name} changed: DAVAR pipeline restarted")),
+                        Err(e) => self.log.warn(&format!("{name} not applied: {e}")),
+                    }
                 }
             }
         }
-        // The queue is closed and drained (the node is stopping): the last line must be whole.
-        if let Some(d) = self.dump.take() {
-            if let Err(e) = d.finish() {
-                self.log.warn(&format!("dump_json: {e}"));
-            }
+    }
+
+    /// A publication: the `new_drops` since the last one counted, `/diagnostics` and the axis
+    /// states published (with the diagnosis the monitor runs then), the dump flushed.
+    fn publish_round(&mut self, new_drops: u64) {
+        if let Some(line) = self.monitor.add_drops(new_drops) {
+            self.log.warn(line);
+        }
+        self.publish();
+        // Rows reach the file at each publication, so that it can be read while the node runs.
+        if let Some(Err(e)) = self.dump.as_mut().map(DumpWriter::flush) {
+            self.log
+                .warn(&format!("dump_json: {e}; no more rows are written"));
+            self.dump = None;
         }
     }
 

@@ -186,7 +186,7 @@ pub static NODE_PARAMS: &[ParamSpec] = &[
               that took C seconds starts the next no sooner than C/share seconds after its own \
               start (a diagnosis costs in proportion to the record: about 0.7 s per axis once it \
               holds 2^21 values). 1 = only diagnosis_period_s paces the rounds. (0, 1].",
-        default: || ParameterValue::Double(0.05),
+        default: || ParameterValue::Double(0.01),
         validate: |v| positive_double(v, 1.0),
         live: true,
     },

@@ -240,7 +240,7 @@ impl RobustLevel {
         }
         let ln = value.ln();
         let anchor = *self.anchor.get_or_insert(ln);
-        let offset = ((ln - anchor) / LEVEL_BIN).round();
+        let offset = round_half_away((ln - anchor) / LEVEL_BIN);
         let bin =
             (offset + LEVEL_HALF_BINS as f64).clamp(0.0, (2 * LEVEL_HALF_BINS) as f64) as usize;
         self.counts[bin] += 1;
@@ -281,11 +281,46 @@ impl RobustLevel {
     }
 }
 
+/// `x.round()`: the nearest integer, halves away from zero, the same value bit for bit (up to
+/// the sign of a zero).
+///
+/// Why not `f64::round`: without SSE4.1's rounding instruction (the baseline x86-64 target) it is
+/// a call into libm, once per DAVAR row and level (1.4 % of `fdavar davar`, `perf record`).
+/// Below 2⁵² the truncation through `i64` is exact and so is `x − t`; from 2⁵² on every `f64`
+/// is an integer.
+fn round_half_away(x: f64) -> f64 {
+    if x.is_nan() || x.abs() >= 4_503_599_627_370_496.0 {
+        return x;
+    }
+    let t = x as i64 as f64;
+    match x - t {
+        f if f >= 0.5 => t + 1.0,
+        f if f <= -0.5 => t - 1.0,
+        _ => t,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
+
+    #[test]
+    fn round_half_away_is_f64_round() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let halves = (-40..40).map(|k| k as f64 + 0.5);
+        let near = [0.49999999999999994, -0.49999999999999994, 2.5 - 1e-15, 1e15 + 0.5, 4503599627370495.5];
+        let big = [4503599627370496.0, -9007199254740993.0, 1e300, f64::INFINITY, f64::MIN_POSITIVE];
+        let random = (0..100_000).map(|_| rng.random_range(-3000.0..3000.0) * 10f64.powi(rng.random_range(-3..3)));
+        for x in halves.chain(near).chain(big).chain(random) {
+            for x in [x, -x] {
+                let (ours, std) = (round_half_away(x), x.round());
+                assert!(ours == std && (ours != 0.0 || x.abs() < 0.5), "{x}: {ours} vs {std}");
+            }
+        }
+        assert!(round_half_away(f64::NAN).is_nan());
+    }
 
     #[test]
     fn robust_level_matches_the_exact_median() {

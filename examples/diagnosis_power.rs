@@ -10,16 +10,26 @@
 //! axes that got a suggestion on stderr). `power` hides each effect at a ladder of strengths in
 //! PER_POINT recordings per point (100/200/400 Hz, 20 and 60 min, every mix) and prints a markdown
 //! table; with PNG it also draws the curves; with a list of families (effect ids), only those.
-//! Runs on two threads.
+//! `low-pass` does both on a sensor whose white noise passes a first-order low-pass at CUTOFF·rate
+//! (default 0.3) on every axis: each family at its stated visibility, detected when named first or
+//! second beside `bandwidth` (docs/model.md, "Two effects at once"), and the clean axes that got
+//! anything but `bandwidth`. Runs on two threads.
+//! ```text
+//! cargo run --release --no-default-features --example diagnosis_power -- low-pass PER_POINT [SEED] [CUTOFF]
+//! ```
 
 #[path = "../tests/power_common/mod.rs"]
 mod power_common;
 
-use fdavar::model::effects::REGISTRY;
+use fdavar::model::effects::{id, REGISTRY};
 use fdavar::model::{diagnose, FitOptions, ModelSpec};
 use fdavar::signal::Axis;
 use plotters::prelude::*;
-use power_common::{families, par_map, power_point, record, settings, spec_yaml, Scale};
+use power_common::{
+    clean_low_pass, families, par_map, power_point, record, run_low_pass, settings, spec_yaml, Scale,
+};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
 
 /// Rates (Hz) and lengths (min) of the null calibration: short records three times as often as
 /// the long ones (cost grows with rate × length).
@@ -95,6 +105,45 @@ fn null(recordings: usize, seed: u64) {
         f.iter().for_each(|l| eprintln!("{l}"));
     }
     eprintln!("clean axes with a suggestion: {flagged}/{axes}");
+}
+
+/// The families at their stated visibility and the clean axes, on a low-pass sensor.
+fn low_pass(per_point: usize, seed: u64, cutoff_per_rate: f64) {
+    let set = settings(per_point, POWER_GRID, seed);
+    println!("low-pass at {cutoff_per_rate}·rate on every axis; {} recordings per family", set.len());
+    println!("| effect | strength | detected | parameters within tolerance (of detected) | named instead |");
+    println!("|---|---|---|---|---|");
+    // Without a burst (the simulator's scales `white`, which a low-pass sensor lacks) and the
+    // low-pass itself.
+    let skipped = |f: &&power_common::Family| f.scale != Scale::AvarDeficit && f.name != id::NOISE_BURST;
+    for family in families().iter().filter(skipped) {
+        let out = par_map(&set, 2, |s| {
+            let mut rng = ChaCha8Rng::seed_from_u64(s.seed ^ 0x9e37_79b9);
+            run_low_pass(s, &(family.make)(s, family.visible, &mut rng), cutoff_per_rate)
+        });
+        let detected = out.iter().filter(|o| o.detected).count();
+        let ok = out.iter().filter(|o| o.params_ok).count();
+        let mut instead: Vec<String> = out.iter().filter_map(|o| o.instead.clone()).collect();
+        instead.sort();
+        instead.dedup();
+        for (s, o) in set.iter().zip(&out).filter(|(_, o)| !o.detected) {
+            eprintln!("{} missed: {} Hz {} min {} seed {}: {:?}", family.name, s.rate, s.minutes, s.mix.name, s.seed, o.suggested);
+        }
+        println!("| {} | {} | {detected}/{} | {ok}/{detected} | {} |", family.name, family.visible, out.len(), instead.join(", "));
+    }
+    let clean = par_map(&set, 2, |s| clean_low_pass(s, cutoff_per_rate));
+    let (mut axes, mut without_filter, mut extra) = (0, 0, 0);
+    for (s, per_axis) in set.iter().zip(&clean) {
+        for (axis, names) in Axis::ALL.iter().zip(per_axis) {
+            axes += 1;
+            without_filter += usize::from(names.first().is_none_or(|n| n != id::BANDWIDTH));
+            if names.len() > 1 || names.first().is_some_and(|n| n != id::BANDWIDTH) {
+                extra += 1;
+                eprintln!("{} Hz {} min {} seed {} {axis}: {names:?}", s.rate, s.minutes, s.mix.name, s.seed);
+            }
+        }
+    }
+    println!("clean low-pass axes: {extra}/{axes} with a suggestion besides bandwidth, {without_filter}/{axes} without bandwidth first");
 }
 
 /// One family's detection-rate curve: its name, strength scale and (strength, rate) points.
@@ -199,6 +248,7 @@ fn main() {
             args.get(4).map(String::as_str).filter(|p| *p != "-"),
             args.get(5).map(String::as_str),
         ),
-        _ => eprintln!("usage: diagnosis_power null|power COUNT [SEED] [PNG|-] [FAMILY,…]"),
+        Some("low-pass") => low_pass(count, seed, args.get(4).and_then(|a| a.parse().ok()).unwrap_or(0.3)),
+        _ => eprintln!("usage: diagnosis_power null|power|low-pass COUNT [SEED] [PNG|-|CUTOFF] [FAMILY,…]"),
     }
 }

@@ -90,6 +90,7 @@ impl WholeRun {
                     params: s.params.iter().map(|p| coefficient(&s.effect, p)).collect(),
                     fit_error_after: s.fit_error_after,
                     explanation: s.explanation.clone(),
+                    given: s.given.clone(),
                 })
                 .collect(),
             ..WholeRun::from_fit(&d.fit, messages, until_s)

@@ -85,7 +85,9 @@ fn every_parameter_is_printed_with_its_unit_as_the_json_has_it() {
             }
         }
         for (i, s) in a["suggestions"].as_array().unwrap().iter().enumerate() {
-            let head = format!("  suggestion {}: add {} (", i + 1, s["effect"].as_str().unwrap());
+            // A suggestion weighed with others added says so: `add sinusoid with gauss_markov (`.
+            let given: String = s["given"].as_array().unwrap().iter().map(|g| format!(" with {}", g.as_str().unwrap())).collect();
+            let head = format!("  suggestion {}: add {}{given} (", i + 1, s["effect"].as_str().unwrap());
             let line = lines.iter().find(|l| l.starts_with(&head)).unwrap_or_else(|| panic!("{axis}: {head}"));
             for (name, p) in s["params"].as_object().unwrap() {
                 let at = line.find(&format!("{name} = ")).unwrap_or_else(|| panic!("{axis}: {name} in {line}"));

@@ -189,6 +189,7 @@ fn axis_state_survives_a_cdr_round_trip() {
             params: vec![coefficient],
             fit_error_after: 0.9,
             explanation: "a periodic disturbance".into(),
+            given: vec!["bandwidth".into()],
         }],
         diagnosed_messages: 3590,
         diagnosed_until_s: 107.7,

@@ -87,6 +87,11 @@ pub struct Suggestion {
     pub delta_chi2: f64,
     /// What it had to beat.
     pub threshold: f64,
+    /// The effects already added to the model when this one was weighed: empty for the first
+    /// suggestion, the first suggestion's id for the others ([`diagnose`]). `fit_error_after`,
+    /// `params` and the refitted model are those of the model with these and this effect.
+    #[serde(default)]
+    pub given: Vec<String>,
 }
 
 /// One candidate effect as the diagnosis weighed it, suggested or not: what a user reads to see
@@ -120,7 +125,18 @@ pub struct Diagnosis {
     pub weighed: Vec<Weighed>,
 }
 
-/// Fits `spec` and weighs every effect it lacks.
+/// Fits `spec` and weighs every effect it lacks; then, when something is suggested, weighs them
+/// again with the best one added: the first suggestion is the round's best, the others are what
+/// is still significant once it is in (each with [`Suggestion::given`] naming it).
+///
+/// Why the second round: one misfit is often explained several ways at once. On a sensor with a
+/// low-pass (every real MEMS part) the model without `bandwidth` fails so badly near τ0 that a
+/// Gauss–Markov process of T ≈ τ0 and a sinusoid near 2 Hz pass their tests too, as alternatives
+/// of the same misfit; and an effect that is really there (a slow Gauss–Markov bias, a line at
+/// 0.02 Hz) is not significant against a base noise that misfits everywhere. Weighed with the best
+/// added, the alternatives drop out and the real second effect is named (measured on a simulated
+/// 30 Hz low-pass in docs/model.md, "Two effects at once"). Effects that follow another (a second
+/// line beside a first) become candidates too once their leader is in.
 ///
 /// # Errors
 /// The errors of [`fit`] for the model itself; a candidate whose refit fails is skipped.
@@ -139,6 +155,33 @@ pub fn diagnose(
 /// # Errors
 /// As [`diagnose`].
 pub fn diagnose_planned(
+    input: &AxisInput<'_>,
+    spec: &ModelSpec,
+    registry: &[&'static dyn EffectKind],
+    opts: &FitOptions,
+    plans: &Plans,
+) -> Result<Diagnosis, FitError> {
+    let mut first = weigh_once(input, spec, registry, opts, plans)?;
+    let Some(best) = first.suggestions.first().map(|s| s.effect.clone()) else {
+        return Ok(first);
+    };
+    // Its base model was fitted once already (as the best's refit); should it fail now, the first
+    // round stands as it was.
+    let Ok(next) = weigh_once(input, &spec.with(&best), registry, opts, plans) else {
+        return Ok(first);
+    };
+    first.suggestions.truncate(1);
+    first.after.truncate(1);
+    for (mut s, after) in next.suggestions.into_iter().zip(next.after) {
+        s.given = vec![best.clone()];
+        first.suggestions.push(s);
+        first.after.push(after);
+    }
+    Ok(first)
+}
+
+/// One round of [`diagnose`]: every effect `spec` lacks weighed against it, best first.
+fn weigh_once(
     input: &AxisInput<'_>,
     spec: &ModelSpec,
     registry: &[&'static dyn EffectKind],
@@ -247,6 +290,7 @@ pub fn diagnose_planned(
                     explanation: term.explanation.clone(),
                     delta_chi2: test.statistic,
                     threshold: test.threshold,
+                    given: Vec::new(),
                 };
                 let gain = chi2_gain(&before, &after, registry).unwrap_or(0.0);
                 scored.push((s, gain, after));

@@ -117,6 +117,7 @@ impl AxisReport {
                     m.insert("params".into(), params_json(&s.params));
                     m.insert("fit_error_after".into(), number(s.fit_error_after));
                     m.insert("explanation".into(), Value::String(s.explanation.clone()));
+                    m.insert("given".into(), s.given.iter().cloned().map(Value::String).collect());
                     m
                 })
                 .collect(),

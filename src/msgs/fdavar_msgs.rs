@@ -240,10 +240,12 @@ pub struct Suggestion {
     pub effect: String,
     /// Its estimated parameters.
     pub params: Vec<Coefficient>,
-    /// fit_error once the effect is added.
+    /// fit_error once the effect is added (with `given`).
     pub fit_error_after: f64,
     /// One plain sentence of physics.
     pub explanation: String,
+    /// The effects added before this one was weighed (empty for the first suggestion).
+    pub given: Vec<String>,
 }
 
 /// The `.msg` definition of [`Suggestion`]: the file `msg/msg/Suggestion.msg`.
@@ -264,5 +266,6 @@ impl Fields for Suggestion {
         ("Coefficient[]", "params"),
         ("float64", "fit_error_after"),
         ("string", "explanation"),
+        ("string[]", "given"),
     ];
 }

@@ -170,9 +170,10 @@ pub fn write_suggestions(w: &mut dyn Write, d: &Diagnosis) -> std::io::Result<()
     for (i, s) in d.suggestions.iter().enumerate() {
         let ps: Vec<String> =
             s.params.iter().map(|p| format!("{} = {}", p.name, param_text(p))).collect();
+        let given: String = s.given.iter().map(|g| format!(" with {g}")).collect();
         writeln!(
             w,
-            "  suggestion {}: add {} ({}) -> fit_error {:.2}\n    {}",
+            "  suggestion {}: add {}{given} ({}) -> fit_error {:.2}\n    {}",
             i + 1,
             s.effect,
             ps.join(", "),

@@ -85,8 +85,34 @@ pub fn recording(
     extra: &[(Axis, EffectValues)],
     motion: &[(Axis, EffectValues)],
 ) -> Recording {
+    simulated(&spec_yaml(seed, rate_hz, minutes, extra, motion))
+}
+
+/// [`recording`] of a sensor whose white noise passes its own first-order low-pass of cut-off
+/// `cutoff_hz` on every axis (`bandwidth` in place of `white`), as real MEMS parts do.
+pub fn low_pass_recording(
+    seed: u64,
+    rate_hz: f64,
+    minutes: f64,
+    cutoff_hz: f64,
+    extra: &[(Axis, EffectValues)],
+    motion: &[(Axis, EffectValues)],
+) -> Recording {
     let yaml = spec_yaml(seed, rate_hz, minutes, extra, motion);
-    let spec = fdavar::sim::SimSpec::from_yaml(&yaml).unwrap_or_else(|e| panic!("{e}\n{yaml}"));
+    let low_pass = yaml
+        .lines()
+        .map(|line| match line.trim_start().strip_prefix("white: { n: ") {
+            Some(rest) => format!("    bandwidth: {{ n: {}, cutoff_hz: {cutoff_hz} }}", rest.trim_end_matches(" }")),
+            None => line.to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    simulated(&low_pass)
+}
+
+/// The recording the real simulator makes of `yaml`, laid out as a bag is.
+fn simulated(yaml: &str) -> Recording {
+    let spec = fdavar::sim::SimSpec::from_yaml(yaml).unwrap_or_else(|e| panic!("{e}\n{yaml}"));
     let sim = fdavar::sim::simulate(&spec).unwrap_or_else(|e| panic!("{e}\n{yaml}"));
     let rec = Recording::from_samples(&sim.imu, &sim.temperature).unwrap();
     assert_eq!(rec.axes[0].len(), sim.imu.len(), "a simulated recording has no gaps");

@@ -411,6 +411,8 @@ pub struct Outcome {
     pub instead: Option<String>,
     /// The worst parameter error, in units of its tolerance (≤ 1 is within).
     pub worst: f64,
+    /// Every suggestion, in order, as `effect` or `effect with given`.
+    pub suggested: Vec<String>,
 }
 
 /// Simulates `hidden` in the setting, diagnoses its axis with N,B,K (and the effect it is beside)
@@ -421,20 +423,42 @@ pub fn run(s: &Setting, hidden: &Hidden) -> Outcome {
 
 /// [`run`] on a recording that lost messages.
 pub fn run_losing(s: &Setting, hidden: &Hidden, loss: Option<LostMessages>) -> Outcome {
+    run_on(s, hidden, loss, None)
+}
+
+/// [`run`] on a sensor whose white noise passes a first-order low-pass of cut-off
+/// `cutoff_per_rate`·rate on every axis the recording holds. Detected: the effect named first, or
+/// second with the low-pass (`bandwidth`) first and weighed beside it (`Suggestion::given`).
+pub fn run_low_pass(s: &Setting, hidden: &Hidden, cutoff_per_rate: f64) -> Outcome {
+    run_on(s, hidden, None, Some(cutoff_per_rate))
+}
+
+/// The sensor's low-pass on `axis` in the setting: white noise of the mix's N through a
+/// first-order filter of cut-off `cutoff_per_rate`·rate.
+fn low_pass(s: &Setting, axis: Axis, cutoff_per_rate: f64) -> Bandwidth {
+    let n = if axis.is_gyro() { s.mix.gyro[0] } else { s.mix.accel[0] };
+    Bandwidth::new(n, cutoff_per_rate * s.rate).unwrap()
+}
+
+fn run_on(s: &Setting, hidden: &Hidden, loss: Option<LostMessages>, cutoff_per_rate: Option<f64>) -> Outcome {
     let mut axes = vec![hidden.axis];
     if hidden.motion.is_some() {
         axes.extend([Axis::AccelX, Axis::AccelY, Axis::AccelZ].into_iter().filter(|a| *a != hidden.axis));
     }
     let motion: Vec<(Axis, &dyn Effect)> = hidden.motion.iter().map(|(a, e)| (*a, e.as_ref())).collect();
+    let filters: Vec<(Axis, Bandwidth)> =
+        cutoff_per_rate.map_or(Vec::new(), |r| axes.iter().map(|&a| (a, low_pass(s, a, r))).collect());
     let mut extra = vec![(hidden.axis, hidden.effect.as_ref())];
     extra.extend(hidden.beside.iter().map(|e| (hidden.axis, e.as_ref())));
+    extra.extend(filters.iter().map(|(a, f)| (*a, f as &dyn Effect)));
     let rec = record_losing(&spec_yaml(s, &axes, &extra, &motion), loss);
     let start = hidden.beside.iter().fold("N,B,K".to_string(), |m, e| format!("{m},{}", e.kind().id()));
     let start = ModelSpec::parse_in(&start, REGISTRY).unwrap();
     let d = diagnose(&rec.input(hidden.axis), &start, REGISTRY, &FitOptions::default()).unwrap();
     let kind = hidden.effect.kind();
-    let first = d.suggestions.first();
-    let detected = first.is_some_and(|x| x.effect == kind.id());
+    let filter_first = filters.first().zip(d.suggestions.first()).is_some_and(|((_, f), x)| x.effect == f.kind().id());
+    let named = if filter_first { d.suggestions.get(1).filter(|x| x.given.len() == 1) } else { d.suggestions.first() };
+    let detected = named.is_some_and(|x| x.effect == kind.id());
     // Two lines are interchangeable: when the starting model's term took the hidden line, the
     // suggestion must be the line beside it (the one that term was meant for).
     let mut truth = hidden.effect.params();
@@ -449,7 +473,7 @@ pub fn run_losing(s: &Setting, hidden: &Hidden, loss: Option<LostMessages>) -> O
         }
     }
     let mut worst: f64 = 0.0;
-    if let Some(sugg) = first.filter(|_| detected) {
+    if let Some(sugg) = named.filter(|_| detected) {
         for (truth, got) in truth.iter().zip(&sugg.params) {
             let err = match truth.spec.unit {
                 "axis" => {
@@ -469,7 +493,8 @@ pub fn run_losing(s: &Setting, hidden: &Hidden, loss: Option<LostMessages>) -> O
     Outcome {
         detected,
         params_ok: detected && worst <= 1.0,
-        instead: first.filter(|_| !detected).map(|x| x.effect.clone()),
+        instead: named.filter(|_| !detected).map(|x| x.effect.clone()),
+        suggested: d.suggestions.iter().map(|x| x.given.iter().fold(x.effect.clone(), |n, g| format!("{n} with {g}"))).collect(),
         worst,
     }
 }
@@ -481,7 +506,20 @@ pub fn clean(s: &Setting) -> Vec<Vec<String>> {
 
 /// [`clean`] on a recording that lost messages.
 pub fn clean_losing(s: &Setting, loss: Option<LostMessages>) -> Vec<Vec<String>> {
-    let rec = record_losing(&spec_yaml(s, &Axis::ALL, &[], &[]), loss);
+    clean_on(s, loss, None)
+}
+
+/// [`clean`] of a sensor with a low-pass of cut-off `cutoff_per_rate`·rate on every axis (see
+/// [`run_low_pass`]): each axis's suggestions, `bandwidth` first when it is named.
+pub fn clean_low_pass(s: &Setting, cutoff_per_rate: f64) -> Vec<Vec<String>> {
+    clean_on(s, None, Some(cutoff_per_rate))
+}
+
+fn clean_on(s: &Setting, loss: Option<LostMessages>, cutoff_per_rate: Option<f64>) -> Vec<Vec<String>> {
+    let filters: Vec<(Axis, Bandwidth)> =
+        cutoff_per_rate.map_or(Vec::new(), |r| Axis::ALL.iter().map(|&a| (a, low_pass(s, a, r))).collect());
+    let extra: Vec<(Axis, &dyn Effect)> = filters.iter().map(|(a, f)| (*a, f as &dyn Effect)).collect();
+    let rec = record_losing(&spec_yaml(s, &Axis::ALL, &extra, &[]), loss);
     let nbk = ModelSpec::parse_in("N,B,K", REGISTRY).unwrap();
     Axis::ALL
         .iter()

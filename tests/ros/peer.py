@@ -616,7 +616,8 @@ def whole_run_fields(state):
         "failing_tau": [[t.low_s, t.high_s] for t in state.failing_tau],
         "failing_spans": [[t.start_s, t.end_s] for t in state.failing_spans],
         "suggestions": [{"effect": x.effect, "fit_error_after": finite(x.fit_error_after),
-                         "params": coefficients(x.params)} for x in state.suggestions],
+                         "params": coefficients(x.params), "given": list(x.given)}
+                        for x in state.suggestions],
         "diagnosed_messages": state.diagnosed_messages,
         "samples": state.samples,
         "drops": state.drops,

@@ -44,11 +44,12 @@ pub(super) static KIND: Extended<BandwidthExtra> = Extended { info: &INFO, extra
 impl Extra for BandwidthExtra {
     /// A low-pass shows in the Allan variance of samples at τ0 well above the Nyquist frequency:
     /// its deficit at τ0 is about 3/(4π·f_c·τ0) of N²/τ0 (7 % for f_c = 2/τ0), so the cut-off is
-    /// searched up to 2/τmin, not capped at Nyquist like a sinusoid's frequency. Down to
-    /// 1/(2π·τmin) only (time constant τmin): a slower "filter" is a bias that wanders, which
-    /// `gauss_markov` (same signature, searched from T = τmin up) describes and explains.
+    /// searched up to 2/τmin, not capped at Nyquist like a sinusoid's frequency. Down to a time
+    /// constant of [`exponential::FILTER_MEMORY_TAUS`]·τmin only: a slower "filter" is a bias that
+    /// wanders, which `gauss_markov` (the same process, searched from there up) describes.
     fn search_range(&self, index: usize, tau_min: f64, _tau_max: f64) -> Option<(f64, f64)> {
-        (index == 1).then(|| (1.0 / (2.0 * PI * tau_min), 2.0 / tau_min))
+        let slowest = exponential::FILTER_MEMORY_TAUS * tau_min;
+        (index == 1).then(|| (1.0 / (2.0 * PI * slowest), 2.0 / tau_min))
     }
 }
 

@@ -2,7 +2,7 @@
 
 use super::{
     check_params, exponential, params_of, Domain, Effect, EffectKind, Evidence, Explanation,
-    KindInfo, Param, ParamError, ParamSpec, SimContext, SimStage,
+    Extended, Extra, KindInfo, Param, ParamError, ParamSpec, SimContext, SimStage,
 };
 use rand::RngCore;
 
@@ -24,8 +24,7 @@ static SCHEMA: &[ParamSpec] = &[
 /// The effect id (**contract** name) of this file's effect: `gauss_markov`.
 pub const ID: &str = "gauss_markov";
 
-/// The registry entry of [`GaussMarkov`].
-pub(super) static KIND: KindInfo = KindInfo {
+static INFO: KindInfo = KindInfo {
     id: ID,
     alias: None,
     schema: SCHEMA,
@@ -34,6 +33,21 @@ pub(super) static KIND: KindInfo = KindInfo {
     stage: SimStage::Additive,
     construct: |v| Ok(Box::new(GaussMarkov::new(v[0], v[1])?)),
 };
+
+/// What the registry entry of [`GaussMarkov`] adds to its [`KindInfo`]: the time constant's
+/// search range.
+pub(super) struct GaussMarkovExtra;
+
+/// The registry entry of [`GaussMarkov`].
+pub(super) static KIND: Extended<GaussMarkovExtra> = Extended { info: &INFO, extra: GaussMarkovExtra };
+
+impl Extra for GaussMarkovExtra {
+    /// From [`exponential::FILTER_MEMORY_TAUS`]·τmin (shorter, the same process is the sensor's
+    /// low-pass: `bandwidth`) to 4·τmax, the fitter's rule for a time.
+    fn search_range(&self, index: usize, tau_min: f64, tau_max: f64) -> Option<(f64, f64)> {
+        (index == 1).then_some((exponential::FILTER_MEMORY_TAUS * tau_min, 4.0 * tau_max))
+    }
+}
 
 /// A first-order Gauss–Markov bias of steady-state deviation `sigma` and correlation time T.
 ///
@@ -76,7 +90,7 @@ impl GaussMarkov {
     /// # Errors
     /// [`ParamError`] naming the parameter that is NaN or out of bounds.
     pub fn new(sigma: f64, time_constant_s: f64) -> Result<Self, ParamError> {
-        check_params(KIND.id, SCHEMA, &[sigma, time_constant_s])?;
+        check_params(ID, SCHEMA, &[sigma, time_constant_s])?;
         Ok(Self {
             sigma,
             time_constant_s,

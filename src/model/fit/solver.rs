@@ -312,8 +312,8 @@ mod tests {
             ]
         );
         // One shape (the Gauss–Markov time constant), started in the middle of its log range
-        // [τmin, 4·τmax] = [0.01 s, 163.84 s].
-        let mid = 0.5 * (0.01f64.ln() + (4.0 * 40.96f64).ln());
+        // [2·τmin, 4·τmax] = [0.02 s, 163.84 s] (`gauss_markov`'s own: shorter is a filter).
+        let mid = 0.5 * (0.02f64.ln() + (4.0 * 40.96f64).ln());
         assert_eq!(problem.initial_shapes(), [mid]);
     }
 

@@ -1,11 +1,13 @@
 //! Benchmark of `fdavar_node` under a 2 kHz IMU: its CPU share and its receive-to-update latency.
 //!
 //! ```text
-//! cargo bench --bench node_load -- [RATE_HZ] [SECONDS] [DIAGNOSIS_PERIOD_S] [SINUSOID]
+//! cargo bench --bench node_load -- [RATE_HZ] [SECONDS] [DIAGNOSIS_PERIOD_S] [SINUSOID] [CPU_SHARE]
 //! ```
-//! (defaults 2000 Hz, 20 s, the node's default diagnosis period, 10 s (0 turns it off), and no
-//! sinusoid; SINUSOID = a peak amplitude in rad/s adds a 2 Hz sinusoid to gyro_x, so that its
-//! model fails and each diagnosis of that axis refits every candidate effect: the costly case).
+//! (defaults 2000 Hz, 20 s, the node's default diagnosis period, 10 s (0 turns it off), no
+//! sinusoid, and the node's default `diagnosis_cpu_share`, 0.01; SINUSOID = a peak amplitude in
+//! rad/s adds a 2 Hz sinusoid to gyro_x, so that its model fails and each diagnosis of that axis
+//! refits every candidate effect: the costly case; a period of 1 s with CPU_SHARE 1 runs the rounds
+//! back to back, so that the latency window always holds diagnoses).
 //! Starts the release `fdavar_node` on ROS_DOMAIN_ID 90, publishes `sensor_msgs/Imu` at RATE_HZ from
 //! this process (ros2-client, best effort), and reads
 //! - CPU share: the node's user+system time (/proc/PID/stat) over the publishing wall time;
@@ -13,8 +15,8 @@
 //!   RustDDS's reception stamp of a message to the end of its analysis update, over the last 8192
 //!   samples);
 //! - samples counted and drops (a full analysis queue);
-//! - the cost of the latest whole-run diagnosis of gyro_x (`diagnosis_ms`), which runs on the
-//!   analysis thread, one axis per publication.
+//! - the cost of the latest whole-run diagnosis of gyro_x (`diagnosis_ms`), which runs on a
+//!   thread of its own, one axis per publication.
 //!
 //! - the same CPU share per thread (/proc/PID/task/*/stat; threads that used none are left out).
 //!
@@ -74,6 +76,8 @@ fn main() {
     let diagnosis_s: f64 = args.get(2).and_then(|a| a.parse().ok()).unwrap_or(10.0);
     let diagnosis = format!("diagnosis_period_s:={diagnosis_s:?}");
     let sinusoid: f64 = args.get(3).and_then(|a| a.parse().ok()).unwrap_or(0.0);
+    let share: f64 = args.get(4).and_then(|a| a.parse().ok()).unwrap_or(0.01);
+    let share_param = format!("diagnosis_cpu_share:={share:?}");
 
     // FDAVAR_NODE runs another build (e.g. a copy of the previous one, for interleaved A/B runs).
     let binary =
@@ -85,6 +89,8 @@ fn main() {
             "publish_rate_hz:=2.0",
             "-p",
             &diagnosis,
+            "-p",
+            &share_param,
             // The bench reads /diagnostics 1.5 s after its last message: not stale yet.
             "-p",
             "stale_timeout_s:=5.0",
@@ -181,7 +187,7 @@ fn main() {
     println!(
         "fdavar_node at {rate_hz} Hz for {wall:.1} s: sent {n}, counted {} samples, {} drops; \
          CPU {:.1} % of one core; receive-to-update latency p50 {} ms, p99 {} ms; diagnosis \
-         every {diagnosis_s} s (gyro_x sinusoid {sinusoid} rad/s), last one on gyro_x {} ms, \
+         every {diagnosis_s} s (CPU share {share}, gyro_x sinusoid {sinusoid} rad/s), last one on gyro_x {} ms, \
          suggestions [{}]",
         get("samples"),
         get("drops"),

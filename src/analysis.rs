@@ -15,6 +15,14 @@
 //! Both stages place samples with the same [`crate::signal::Intake`] rules (τ0, duplicates,
 //! backwards stamps, gaps, NaN). The whole run is the horizon of the fit: the record keeps it all,
 //! halving its rate when it grows past [`AnalysisConfig::max_samples`] (see [`crate::model::record`]).
+//!
+//! A live caller can lend the record to a diagnosis running on another thread ([`Analysis::lend`]):
+//! rows go on meanwhile, and the samples the record missed are pushed into it, in order, when it
+//! comes back ([`Analysis::give_back`]). Why move the record rather than copy it: a copy is up to
+//! 2²¹ values per axis (about 100 MB for six axes) to take while samples wait, where a move costs
+//! nothing and the samples that arrive during a diagnosis (a few thousand at 2 kHz) replay in
+//! about a millisecond; the diagnosis reads the very record [`Analysis::diagnose`] would, so the
+//! answers are the same, bit for bit.
 
 use crate::model::effects::REGISTRY;
 use crate::model::record::{RecordBuilder, RecordError};
@@ -73,16 +81,79 @@ pub enum AnalysisError {
     /// The model could not be fitted.
     #[error(transparent)]
     Fit(#[from] FitError),
+    /// The record is lent to a diagnosis that has not given it back yet ([`Analysis::lend`]).
+    #[error("the whole-run record is lent to a diagnosis still running")]
+    Lent,
 }
 
 /// Samples in, rows and the whole-run model out (see the module doc).
 pub struct Analysis {
     rows: Option<Pipeline>,
     out: Output,
-    record: RecordBuilder,
+    /// The whole-run record; `None` while lent ([`Analysis::lend`]).
+    record: Option<RecordBuilder>,
+    /// What the record missed while lent, in arrival order.
+    deferred: Vec<Deferred>,
     models: [ModelSpec; 6],
     fit: FitOptions,
     messages: u64,
+}
+
+/// An input that arrived while the record was lent.
+#[derive(Debug, Clone, Copy)]
+enum Deferred {
+    Imu(ImuSample),
+    Temperature(TemperatureSample),
+}
+
+/// The whole-run record lent to a diagnosis of one axis, with that axis's model and the fit
+/// options as they were when lent ([`Analysis::lend`]); give it back with [`Analysis::give_back`].
+#[derive(Debug)]
+pub struct Loan {
+    record: RecordBuilder,
+    axis: Axis,
+    model: ModelSpec,
+    fit: FitOptions,
+    messages: u64,
+}
+
+impl Loan {
+    /// The axis to diagnose.
+    pub fn axis(&self) -> Axis {
+        self.axis
+    }
+
+    /// IMU messages the record had taken in when lent (the cut `fdavar diagnose --first` makes).
+    pub fn messages(&self) -> u64 {
+        self.messages
+    }
+
+    /// Seconds from the first to the last sample in the record.
+    pub fn duration_s(&self) -> Option<f64> {
+        span_s(&self.record)
+    }
+
+    /// [`Analysis::diagnose`] of the lent axis on the lent record: the same answer.
+    ///
+    /// # Errors
+    /// As [`Analysis::diagnose`].
+    pub fn diagnose(&mut self) -> Result<Diagnosis, AnalysisError> {
+        let rec = laid_out(&mut self.record)?;
+        Ok(diagnose(&rec.input(self.axis), &self.model, REGISTRY, &self.fit)?)
+    }
+}
+
+/// The record's samples laid out for the fitter, or why not.
+fn laid_out(record: &mut RecordBuilder) -> Result<&crate::model::record::Recording, AnalysisError> {
+    if let Some(e) = record.error() {
+        return Err(e.clone().into());
+    }
+    record.recording().ok_or(AnalysisError::NoRecord)
+}
+
+/// Seconds from the first to the last sample placed in `record`.
+fn span_s(record: &RecordBuilder) -> Option<f64> {
+    Some((record.last_stamp_ns()? - record.first_stamp_ns()?) as f64 * 1e-9)
 }
 
 impl std::fmt::Debug for Analysis {
@@ -109,7 +180,8 @@ impl Analysis {
         Ok(Analysis {
             rows,
             out: Output::default(),
-            record: RecordBuilder::new(config.tau0, config.max_samples),
+            record: Some(RecordBuilder::new(config.tau0, config.max_samples)),
+            deferred: Vec::new(),
             models: config.models,
             fit: config.fit,
             messages: 0,
@@ -119,7 +191,10 @@ impl Analysis {
     /// Feeds one IMU message; returns the DAVAR rows it completed (none without DAVAR settings).
     pub fn push(&mut self, sample: &ImuSample) -> &[AxisRow] {
         self.messages += 1;
-        self.record.push(sample);
+        match self.record.as_mut() {
+            Some(record) => record.push(sample),
+            None => self.deferred.push(Deferred::Imu(*sample)),
+        }
         self.out.rows.clear();
         self.out.events.clear();
         if let Some(p) = self.rows.as_mut() {
@@ -145,12 +220,18 @@ impl Analysis {
 
     /// Feeds one temperature reading (evidence for the `temperature` effect).
     pub fn push_temperature(&mut self, reading: &TemperatureSample) {
-        self.record.push_temperature(reading);
+        match self.record.as_mut() {
+            Some(record) => record.push_temperature(reading),
+            None => self.deferred.push(Deferred::Temperature(*reading)),
+        }
     }
 
-    /// Ends the input (a recording): places a short input whose period was never settled.
+    /// Ends the input (a recording): places a short input whose period was never settled. Not
+    /// while the record is lent (a live run never ends this way).
     pub fn finish(&mut self) {
-        self.record.finish();
+        if let Some(record) = self.record.as_mut() {
+            record.finish();
+        }
     }
 
     /// IMU messages pushed so far (the cut that makes an offline run equal to a live answer).
@@ -158,9 +239,9 @@ impl Analysis {
         self.messages
     }
 
-    /// The input's sample period τ0, s, once known.
+    /// The input's sample period τ0, s, once known (and while the record is here).
     pub fn sample_period_s(&self) -> Option<f64> {
-        self.record.input_tau0()
+        self.record.as_ref()?.input_tau0()
     }
 
     /// The period of the DAVAR rows, once known.
@@ -168,14 +249,18 @@ impl Analysis {
         self.rows.as_ref().and_then(Pipeline::tau0)
     }
 
-    /// Irregularities of the input so far.
+    /// Irregularities of the input so far (none counted while the record is lent).
     pub fn irregularities(&self) -> Irregularities {
-        self.record.irregularities()
+        self.record
+            .as_ref()
+            .map(RecordBuilder::irregularities)
+            .unwrap_or_default()
     }
 
-    /// Seconds from the first to the last sample placed in the whole-run record.
+    /// Seconds from the first to the last sample placed in the whole-run record (while it is
+    /// here).
     pub fn duration_s(&self) -> Option<f64> {
-        Some((self.record.last_stamp_ns()? - self.record.first_stamp_ns()?) as f64 * 1e-9)
+        span_s(self.record.as_ref()?)
     }
 
     /// Replaces the DAVAR settings: rows restart, on the new settings, half a window later. The
@@ -214,10 +299,49 @@ impl Analysis {
     /// # Errors
     /// As [`Analysis::fit`].
     pub fn diagnose(&mut self, axis: Axis) -> Result<Diagnosis, AnalysisError> {
-        let spec = self.models[axis.index()].clone();
-        let opts = self.fit;
-        let rec = self.recording()?;
-        Ok(diagnose(&rec.input(axis), &spec, REGISTRY, &opts)?)
+        // The path a lent record takes, so that the node's answers are these.
+        let mut loan = self.lend(axis)?;
+        let answer = loan.diagnose();
+        self.give_back(loan);
+        answer
+    }
+
+    /// Lends the whole-run record for a diagnosis of `axis` ([`Loan::diagnose`]) that runs
+    /// without this analysis: rows go on, and what the record misses meanwhile waits
+    /// ([`Analysis::deferred`]) until [`Analysis::give_back`].
+    ///
+    /// Why: the node's whole-run diagnosis takes up to seconds; samples must not wait for it
+    /// (see the module doc).
+    ///
+    /// # Errors
+    /// [`AnalysisError::Lent`] when the record is lent already.
+    pub fn lend(&mut self, axis: Axis) -> Result<Loan, AnalysisError> {
+        let record = self.record.take().ok_or(AnalysisError::Lent)?;
+        Ok(Loan {
+            record,
+            axis,
+            model: self.models[axis.index()].clone(),
+            fit: self.fit,
+            messages: self.messages,
+        })
+    }
+
+    /// Takes back the record [`Analysis::lend`] lent, and pushes into it what it missed, in the
+    /// order received: the record is then the one that never left.
+    pub fn give_back(&mut self, loan: Loan) {
+        let mut record = loan.record;
+        for input in self.deferred.drain(..) {
+            match input {
+                Deferred::Imu(s) => record.push(&s),
+                Deferred::Temperature(t) => record.push_temperature(&t),
+            }
+        }
+        self.record = Some(record);
+    }
+
+    /// Inputs waiting for the lent record to come back (0 while it is here).
+    pub fn deferred(&self) -> usize {
+        self.deferred.len()
     }
 
     /// [`Analysis::diagnose`] of each axis of `axes`, in that order, on up to `threads` threads.
@@ -244,10 +368,7 @@ impl Analysis {
     }
 
     fn recording(&mut self) -> Result<&crate::model::record::Recording, AnalysisError> {
-        if let Some(e) = self.record.error() {
-            return Err(e.clone().into());
-        }
-        self.record.recording().ok_or(AnalysisError::NoRecord)
+        laid_out(self.record.as_mut().ok_or(AnalysisError::Lent)?)
     }
 }
 
@@ -333,4 +454,70 @@ fn set_malloc_thresholds(mapping: i32, trim: i32) {
     }
     #[cfg(not(all(target_os = "linux", target_env = "gnu")))]
     let _ = (mapping, trim);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+
+    /// 100 Hz white noise on every axis, a temperature reading each second.
+    fn input(n: i64) -> Vec<(ImuSample, Option<TemperatureSample>)> {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let normal = Normal::new(0.0, 1e-3).unwrap();
+        (0..n)
+            .map(|k| {
+                let stamp_ns = 1_000_000_000 + k * 10_000_000;
+                let mut v = [0.0; 6];
+                for x in &mut v {
+                    *x = normal.sample(&mut rng);
+                }
+                let sample = ImuSample { stamp_ns, gyro: [v[0], v[1], v[2]], accel: [v[3], v[4], v[5]] };
+                let reading = (k % 100 == 0).then_some(TemperatureSample { stamp_ns, celsius: 20.0 + k as f64 * 1e-3 });
+                (sample, reading)
+            })
+            .collect()
+    }
+
+    fn push(a: &mut Analysis, input: &[(ImuSample, Option<TemperatureSample>)]) {
+        for (s, t) in input {
+            a.push(s);
+            if let Some(t) = t {
+                a.push_temperature(t);
+            }
+        }
+    }
+
+    /// The node lends the record to a diagnosis on another thread while samples keep coming:
+    /// the lent diagnosis is that of the samples taken in before, and the record given back,
+    /// with what it missed, is the record that never left (the next answers are the same, bit
+    /// for bit).
+    #[test]
+    fn a_lent_record_diagnoses_its_samples_and_comes_back_with_those_it_missed() {
+        let model = ModelSpec::parse("N,B,K").unwrap();
+        let new = || Analysis::new(AnalysisConfig::whole_run(&model)).unwrap();
+        let all = input(6_000);
+        let (before, after) = all.split_at(4_000);
+        let (mut lending, mut staying, mut cut) = (new(), new(), new());
+        push(&mut lending, before);
+        push(&mut staying, before);
+        push(&mut cut, before);
+        let mut loan = lending.lend(Axis::GyroX).unwrap();
+        assert_eq!(lending.lend(Axis::GyroY).unwrap_err(), AnalysisError::Lent);
+        assert_eq!((loan.axis(), loan.messages()), (Axis::GyroX, 4_000));
+        push(&mut lending, after);
+        push(&mut staying, after);
+        assert_eq!(lending.deferred(), 2_000 + 20);
+        assert_eq!(lending.diagnose(Axis::GyroX).unwrap_err(), AnalysisError::Lent);
+        assert_eq!(loan.duration_s(), cut.duration_s());
+        assert_eq!(loan.diagnose().unwrap(), cut.diagnose(Axis::GyroX).unwrap());
+        lending.give_back(loan);
+        assert_eq!((lending.deferred(), lending.messages()), (0, 6_000));
+        assert_eq!(lending.duration_s(), staying.duration_s());
+        assert_eq!(lending.irregularities(), staying.irregularities());
+        for axis in [Axis::GyroX, Axis::AccelZ] {
+            assert_eq!(lending.diagnose(axis).unwrap(), staying.diagnose(axis).unwrap());
+        }
+    }
 }

@@ -8,13 +8,21 @@
 //! A live change of a DAVAR parameter restarts the rows (half a window later, on the new
 //! settings); the whole-run record carries on. A new model applies at the next diagnosis.
 
-use super::monitor::{Change, RowEngine, WholeRun};
-use crate::analysis::{Analysis, AnalysisConfig};
+use super::monitor::{Change, Lent, RowEngine, WholeRun};
+use crate::analysis::{Analysis, AnalysisConfig, Loan};
 use crate::model::ModelSpec;
 use crate::msgs::fdavar_msgs::AxisState;
 use crate::pipeline::{AxisRow, DavarConfig, PipelineError};
 use crate::results::axis_state;
 use crate::signal::{Axis, ImuSample, TemperatureSample};
+
+/// Inputs the engine holds for a lent record ([`RowEngine::lend`]) before it takes no more:
+/// the node then queues the input, and drops and counts what its full queue cannot take.
+///
+/// Why 2¹⁶ (64 bytes each, 4 MB): the longest diagnosis, of a full record (2²¹ values per axis),
+/// takes about 1.6 s on the slowest host measured (`fdavar diagnose --jobs 1`), 3 200 samples at
+/// 2 kHz; 2¹⁶ is 33 s at 2 kHz, so that only a stalled machine meets the cap.
+pub const DEFERRED_CAP: usize = 1 << 16;
 
 /// [`Analysis`] as a [`RowEngine`].
 #[derive(Debug)]
@@ -122,10 +130,40 @@ impl RowEngine for AnalysisEngine {
         }
     }
 
-    fn diagnose(&mut self, axis: Axis) -> Result<WholeRun, String> {
-        let messages = self.analysis.messages();
-        let until_s = self.analysis.duration_s().unwrap_or(0.0);
-        let d = self.analysis.diagnose(axis).map_err(|e| e.to_string())?;
+    fn has_row(&self, axis: Axis) -> bool {
+        self.latest[axis.index()].is_some()
+    }
+
+    fn lend(&mut self, axis: Axis) -> Option<Box<dyn Lent>> {
+        let loan = self.analysis.lend(axis).ok()?;
+        Some(Box::new(LentRecord(loan)))
+    }
+
+    fn give_back(&mut self, lent: Box<dyn Lent>) {
+        // Only this engine's loans come back here (the monitor hands back what it was lent).
+        if let Ok(lent) = lent.into_any().downcast::<LentRecord>() {
+            self.analysis.give_back(lent.0);
+        }
+    }
+
+    fn can_take(&self) -> bool {
+        self.analysis.deferred() < DEFERRED_CAP
+    }
+}
+
+/// The whole-run record lent by [`AnalysisEngine`]: its diagnosis is [`Loan::diagnose`], the
+/// path of `fdavar diagnose`.
+struct LentRecord(Loan);
+
+impl Lent for LentRecord {
+    fn diagnose(&mut self) -> Result<WholeRun, String> {
+        let messages = self.0.messages();
+        let until_s = self.0.duration_s().unwrap_or(0.0);
+        let d = self.0.diagnose().map_err(|e| e.to_string())?;
         Ok(WholeRun::from_diagnosis(&d, messages, until_s))
+    }
+
+    fn into_any(self: Box<Self>) -> Box<dyn std::any::Any + Send> {
+        self
     }
 }

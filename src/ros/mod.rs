@@ -9,7 +9,8 @@
 //! - [`engine`]: the library's analysis path ([`crate::analysis`]) behind the node's engine trait,
 //!   its answers as messages;
 //! - [`monitor`]: input checks, counters, levels and the messages (no DDS, tested alone);
-//! - [`node`]: context (ROS_DOMAIN_ID), subscriptions, the bounded queue, the analysis thread,
+//! - [`node`]: context (ROS_DOMAIN_ID), subscriptions, the bounded queue, the analysis and
+//!   diagnosis threads,
 //!   publishers of `/diagnostics` and `~/<axis>/state`, `/clock` as `rosgraph_msgs/msg/Clock`;
 //! - [`play`]: `fdavar play`, a recording replayed over DDS at its recorded pace;
 //! - [`dump`]: the `dump_json` file, decimated and size-capped.

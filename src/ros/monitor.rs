@@ -12,7 +12,7 @@ use crate::msgs::builtin_interfaces::Time;
 use crate::msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue, Level};
 use crate::msgs::fdavar_msgs::AxisState;
 use crate::msgs::std_msgs::Header;
-/// The whole-run fields of `~/<axis>/state` (see [`RowEngine::diagnose`]).
+/// The whole-run fields of `~/<axis>/state` (see [`RowEngine::lend`]).
 pub use crate::results::WholeRun;
 use crate::signal::{Axis, ImuSample, PeriodEstimator, StampCheck, StampClass, TemperatureSample};
 
@@ -32,6 +32,10 @@ pub trait RowEngine: Send {
     fn push(&mut self, sample: &ImuSample, every_row: Option<&mut Vec<AxisState>>);
     /// The state message (row fields filled) of the latest row of `axis`, if any.
     fn latest(&self, axis: Axis) -> Option<AxisState>;
+    /// Whether `axis` has a row yet: [`RowEngine::latest`] without building the message.
+    fn has_row(&self, axis: Axis) -> bool {
+        self.latest(axis).is_some()
+    }
     /// Feeds one reading of the temperature topic (only when the node subscribes it).
     fn push_temperature(&mut self, _t: &TemperatureSample) {}
     /// Applies a live parameter change (model, window settings).
@@ -40,15 +44,84 @@ pub trait RowEngine: Send {
     /// A reason when the engine cannot take the value (the node then keeps the old one).
     fn reconfigure(&mut self, change: Change) -> Result<(), String>;
 
-    /// The model of `axis` fitted to the whole run so far, where it fails and what it lacks: the
-    /// answer of `fdavar diagnose`. Far costlier than a row (one refit per candidate effect): the
-    /// monitor asks every `diagnosis_period_s`, one axis per publication.
+    /// What a diagnosis of `axis` needs, lent out so that it runs on another thread while
+    /// samples keep coming in ([`Lent::diagnose`]); `None` when the engine has no whole-run
+    /// analysis, or has lent it already. Whatever the engine cannot do without it meanwhile
+    /// waits until [`RowEngine::give_back`].
+    ///
+    /// Why lent rather than run here: a diagnosis is far costlier than a row (one refit per
+    /// candidate effect; up to seconds on a long run), and samples that waited behind it made
+    /// the node's p99 receive-to-update latency that long (docs/ros.md). The monitor asks every
+    /// `diagnosis_period_s`, one axis per publication.
+    fn lend(&mut self, _axis: Axis) -> Option<Box<dyn Lent>> {
+        None
+    }
+    /// Takes back what [`RowEngine::lend`] lent.
+    fn give_back(&mut self, _lent: Box<dyn Lent>) {}
+    /// False while the engine holds as many inputs for a lent diagnosis as it may (the caller
+    /// then keeps the input until [`RowEngine::give_back`]).
+    fn can_take(&self) -> bool {
+        true
+    }
+}
+
+/// A whole-run diagnosis lent out of a [`RowEngine`].
+pub trait Lent: Send {
+    /// The model fitted to the whole run up to the lending, where it fails and what it lacks:
+    /// the answer of `fdavar diagnose` on those samples.
     ///
     /// # Errors
     /// Why there is no answer yet (too few samples, a degenerate record).
-    fn diagnose(&mut self, _axis: Axis) -> Result<WholeRun, String> {
-        Err("this engine has no whole-run analysis".to_string())
+    fn diagnose(&mut self) -> Result<WholeRun, String>;
+    /// Itself, for the engine that lent it to take back ([`RowEngine::give_back`]).
+    fn into_any(self: Box<Self>) -> Box<dyn std::any::Any + Send>;
+}
+
+/// A diagnosis the monitor started ([`Monitor::start_diagnosis`]): run it on any thread, then
+/// hand what it gives to [`Monitor::finish_diagnosis`].
+pub struct DiagnosisJob {
+    axis: Axis,
+    lent: Box<dyn Lent>,
+    /// The monitor's [`Monitor::generation`] when it started.
+    generation: u64,
+}
+
+/// A diagnosis run: its answer, what it cost, and what goes back to the engine.
+pub struct DiagnosisDone {
+    axis: Axis,
+    /// `None` after a panic (what it held is not to be trusted).
+    lent: Option<Box<dyn Lent>>,
+    /// The answer, or the message of the panic the diagnosis raised.
+    answer: Result<Result<WholeRun, String>, String>,
+    cost_s: f64,
+    generation: u64,
+}
+
+impl DiagnosisJob {
+    /// Runs the diagnosis, timing it; a panic in it (a bug in the analysis) is caught and handed
+    /// on, as [`Monitor`] does with the engine's own.
+    pub fn run(mut self) -> DiagnosisDone {
+        let start = std::time::Instant::now();
+        let lent = &mut self.lent;
+        let answer = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| lent.diagnose()))
+            .map_err(panic_message);
+        DiagnosisDone {
+            axis: self.axis,
+            lent: answer.is_ok().then_some(self.lent),
+            answer,
+            cost_s: start.elapsed().as_secs_f64(),
+            generation: self.generation,
+        }
     }
+}
+
+/// The message a panic was raised with.
+fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "a panic without a message".to_string())
 }
 
 /// A live change for the engine.
@@ -208,10 +281,15 @@ pub struct Monitor {
     new_rows: Option<Vec<AxisState>>,
     /// The latest whole-run answer of each axis.
     whole_run: [Option<WholeRun>; 6],
-    /// What the latest diagnosis of each axis cost, ms of the analysis thread.
+    /// What the latest diagnosis of each axis cost, ms of wall time on the thread that ran it.
     diagnosis_ms: [Option<f64>; 6],
     /// Node time the last diagnosis round started, ns.
     last_diagnosis_ns: Option<i64>,
+    /// A diagnosis is lent out ([`Monitor::start_diagnosis`]).
+    in_flight: bool,
+    /// Bumped when a diagnosis running now can no longer be published (a new model, diagnosis
+    /// turned off).
+    generation: u64,
     /// Axes of the current round still to diagnose (one per publication).
     diagnosis_due: Vec<Axis>,
     /// When the current round started (wall clock) and what its diagnoses cost so far, s.
@@ -250,6 +328,8 @@ impl Monitor {
             whole_run: Default::default(),
             diagnosis_ms: [None; 6],
             last_diagnosis_ns: None,
+            in_flight: false,
+            generation: 0,
             diagnosis_due: Vec::new(),
             round: None,
             last_round: None,
@@ -266,18 +346,23 @@ impl Monitor {
         match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(engine.as_mut()))) {
             Ok(v) => Some(v),
             Err(payload) => {
-                let why = payload
-                    .downcast_ref::<&str>()
-                    .map(|s| s.to_string())
-                    .or_else(|| payload.downcast_ref::<String>().cloned())
-                    .unwrap_or_else(|| "a panic without a message".to_string());
-                self.engine = None;
-                self.whole_run = Default::default();
-                self.diagnosis_due.clear();
-                self.engine_failure = Some(why);
+                self.stop_engine(panic_message(payload));
                 None
             }
         }
+    }
+
+    /// Stops the engine after a panic (`why`: its message).
+    fn stop_engine(&mut self, why: String) {
+        self.engine = None;
+        self.whole_run = Default::default();
+        self.diagnosis_due.clear();
+        self.engine_failure = Some(why);
+    }
+
+    /// Whether the engine takes another input now (see [`RowEngine::can_take`]).
+    pub fn can_take(&self) -> bool {
+        self.engine.as_ref().is_none_or(|e| e.can_take())
     }
 
     /// Keeps every new row for [`Monitor::drain_rows`] (the node's `dump_json`).
@@ -298,6 +383,7 @@ impl Monitor {
         if settings.diagnosis_period_s == 0.0 {
             self.whole_run = Default::default();
             self.diagnosis_due.clear();
+            self.generation += 1;
         }
         self.settings = settings;
     }
@@ -324,13 +410,16 @@ impl Monitor {
             self.last_diagnosis_ns = None;
             self.diagnosis_due.clear();
             self.last_round = None;
+            self.generation += 1;
         }
         Ok(())
     }
 
-    /// Diagnoses the next axis due, if any: a round of all six axes starts every
-    /// `diagnosis_period_s` of node time, one axis per call, so that a publication never waits
-    /// for more than one axis's diagnosis (the samples queue meanwhile).
+    /// Starts the diagnosis of the next axis due, if any, and none is running: a round of all
+    /// six axes starts every `diagnosis_period_s` of node time, one axis per call, so that the
+    /// diagnoses spread over the publications. The job runs anywhere ([`DiagnosisJob::run`]; the
+    /// node: on a thread of its own, so that samples never wait for it) and its answer is
+    /// published once handed to [`Monitor::finish_diagnosis`].
     ///
     /// Why a CPU budget besides the period: a diagnosis costs in proportion to the record, up to
     /// its cap of 2²¹ values per axis (about 0.73 s per axis there, measured: `fdavar diagnose
@@ -339,10 +428,10 @@ impl Monitor {
     /// 2 kHz). So a round that cost C seconds lets the next start no sooner than
     /// C/`diagnosis_cpu_share` after its own start: the period while the record is short, longer
     /// as it grows.
-    fn diagnose_next(&mut self, now_ns: i64) {
+    pub fn start_diagnosis(&mut self, now_ns: i64) -> Option<DiagnosisJob> {
         let period = self.settings.diagnosis_period_s;
-        if self.engine.is_none() || period <= 0.0 {
-            return;
+        if self.engine.is_none() || period <= 0.0 || self.in_flight {
+            return None;
         }
         // Due after a period, at start, and when the node's time went backwards (sim time reset).
         let due = self
@@ -360,22 +449,57 @@ impl Monitor {
             self.round = Some((std::time::Instant::now(), 0.0));
         }
         // Axes still without a row sit this round out.
+        let mut job = None;
         while let Some(axis) = self.diagnosis_due.pop() {
             if self.has_row(axis) {
-                let start = std::time::Instant::now();
-                // Too short a run keeps the previous answer (none at first).
-                if let Some(Ok(answer)) = self.supervised(|e| e.diagnose(axis)) {
-                    self.whole_run[axis.index()] = Some(answer);
-                }
-                let cost_s = start.elapsed().as_secs_f64();
-                self.diagnosis_ms[axis.index()] = Some(cost_s * 1e3);
-                if let Some((_, spent)) = self.round.as_mut() {
-                    *spent += cost_s;
-                }
+                job = self.supervised(|e| e.lend(axis)).flatten().map(|lent| DiagnosisJob {
+                    axis,
+                    lent,
+                    generation: self.generation,
+                });
                 break;
             }
         }
-        if self.diagnosis_due.is_empty() && self.round.is_some() {
+        self.in_flight = job.is_some();
+        self.close_round();
+        job
+    }
+
+    /// Takes back a diagnosis [`Monitor::start_diagnosis`] lent out: what it held goes back to
+    /// the engine, and its answer is published from now on, unless the model changed or the
+    /// diagnosis was turned off meanwhile. A panic in it stops the engine, as one in a row does.
+    pub fn finish_diagnosis(&mut self, done: DiagnosisDone) {
+        self.in_flight = false;
+        let answer = match done.answer {
+            Ok(answer) => answer,
+            Err(why) => {
+                if self.engine.is_some() {
+                    self.stop_engine(why);
+                }
+                return;
+            }
+        };
+        if let Some(lent) = done.lent {
+            self.supervised(|e| e.give_back(lent));
+        }
+        if done.generation != self.generation || self.engine.is_none() {
+            return;
+        }
+        let i = done.axis.index();
+        // Too short a run keeps the previous answer (none at first).
+        if let Ok(answer) = answer {
+            self.whole_run[i] = Some(answer);
+        }
+        self.diagnosis_ms[i] = Some(done.cost_s * 1e3);
+        if let Some((_, spent)) = self.round.as_mut() {
+            *spent += done.cost_s;
+        }
+        self.close_round();
+    }
+
+    /// Once no axis of the round is left to diagnose or running, the round is the last one.
+    fn close_round(&mut self) {
+        if self.diagnosis_due.is_empty() && !self.in_flight && self.round.is_some() {
             self.last_round = self.round.take();
         }
     }
@@ -449,7 +573,7 @@ impl Monitor {
 
     /// Whether the engine has a row of `axis` yet.
     fn has_row(&self, axis: Axis) -> bool {
-        self.latest(axis).is_some()
+        self.engine.as_ref().is_some_and(|e| e.has_row(axis))
     }
 
     /// The engine's latest row of `axis` as a state message, with the stream's frame id.
@@ -555,15 +679,29 @@ impl Monitor {
         None
     }
 
-    /// Builds `/diagnostics` and the latest `~/<axis>/state` messages at node time `now_ns`.
-    ///
-    /// Also returns a line to log when the rate changed.
+    /// Diagnoses the next axis due, here and now ([`Monitor::start_diagnosis`], run, finished),
+    /// then builds the messages ([`Monitor::publication`]): for a caller with no thread to
+    /// spare (in-process replays and tests).
     pub fn report(
         &mut self,
         now_ns: i64,
     ) -> (DiagnosticArray, Vec<AxisState>, Option<&'static str>) {
+        if let Some(job) = self.start_diagnosis(now_ns) {
+            let done = job.run();
+            self.finish_diagnosis(done);
+        }
+        self.publication(now_ns)
+    }
+
+    /// Builds `/diagnostics` and the latest `~/<axis>/state` messages at node time `now_ns`, with
+    /// the latest whole-run answers.
+    ///
+    /// Also returns a line to log when the rate changed.
+    pub fn publication(
+        &mut self,
+        now_ns: i64,
+    ) -> (DiagnosticArray, Vec<AxisState>, Option<&'static str>) {
         let log = self.close_rate_window();
-        self.diagnose_next(now_ns);
         let stale = match self.last_receive_ns {
             None => Some("no IMU message received yet".to_string()),
             Some(t) if (now_ns - t) as f64 * 1e-9 > self.settings.stale_timeout_s => Some(format!(
@@ -1076,6 +1214,50 @@ mod tests {
         assert_eq!((level(&a, 0), value(&a, 0, "samples")), (Level::Error as u8, "201"));
     }
 
+    /// A diagnosis that panics on the diagnosis thread: caught there, and once handed back the
+    /// engine stops as after a panic in a row (every axis ERROR with the message).
+    #[test]
+    fn a_panicking_diagnosis_stops_the_engine_as_a_panicking_row_does() {
+        struct Panics;
+        impl Lent for Panics {
+            fn diagnose(&mut self) -> Result<WholeRun, String> {
+                panic!("diagnosis bug")
+            }
+            fn into_any(self: Box<Self>) -> Box<dyn std::any::Any + Send> {
+                self
+            }
+        }
+        struct LendsPanics(Echo);
+        impl RowEngine for LendsPanics {
+            fn push(&mut self, s: &ImuSample, every_row: Option<&mut Vec<AxisState>>) {
+                self.0.push(s, every_row);
+            }
+            fn latest(&self, axis: Axis) -> Option<AxisState> {
+                self.0.latest(axis)
+            }
+            fn reconfigure(&mut self, _: Change) -> Result<(), String> {
+                Ok(())
+            }
+            fn lend(&mut self, _: Axis) -> Option<Box<dyn Lent>> {
+                Some(Box::new(Panics))
+            }
+        }
+        let mut m = Monitor::new(MonitorSettings::default(), Some(Box::new(LendsPanics(Echo::default()))));
+        let mut t = 0;
+        for _ in 0..10 {
+            t += 10 * MS;
+            m.push(sample(t, 0.1), "imu", t);
+        }
+        let job = m.start_diagnosis(t).expect("a round starts once rows exist");
+        let done = std::thread::spawn(move || job.run()).join().expect("the panic is caught");
+        m.finish_diagnosis(done);
+        let (a, states, _) = m.publication(t);
+        assert!(states.is_empty(), "no rows from a stopped engine");
+        let message = &a.status[0].message;
+        assert!(message.starts_with("analysis stopped: it panicked (diagnosis bug)"), "{message}");
+        assert_eq!(value(&a, 0, "samples"), "10");
+    }
+
     #[test]
     fn a_stream_of_zero_stamps_runs_on_the_receive_time() {
         let mut m = Monitor::new(MonitorSettings::default(), None);
@@ -1178,7 +1360,22 @@ mod tests {
         fn reconfigure(&mut self, _: Change) -> Result<(), String> {
             Ok(())
         }
-        fn diagnose(&mut self, axis: Axis) -> Result<WholeRun, String> {
+        fn lend(&mut self, axis: Axis) -> Option<Box<dyn Lent>> {
+            Some(Box::new(DiagnosingLent(self.0.clone(), self.1, axis)))
+        }
+    }
+    /// What [`Diagnosing`] lends: the calls, the cost, the axis.
+    struct DiagnosingLent(
+        std::sync::Arc<std::sync::Mutex<Vec<Axis>>>,
+        std::time::Duration,
+        Axis,
+    );
+    impl Lent for DiagnosingLent {
+        fn into_any(self: Box<Self>) -> Box<dyn std::any::Any + Send> {
+            self
+        }
+        fn diagnose(&mut self) -> Result<WholeRun, String> {
+            let axis = self.2;
             self.0.lock().unwrap().push(axis);
             std::thread::sleep(self.1);
             let suggestions = if axis == Axis::GyroX {
@@ -1237,18 +1434,66 @@ mod tests {
         assert!(states.iter().all(|s| s.suggestions.is_empty()));
     }
 
+    /// The node runs each diagnosis on a thread of its own: samples and publications go on while
+    /// it runs, one runs at a time, and the answer of a model changed meanwhile is not published
+    /// (a round of the new one starts once it is back).
+    #[test]
+    fn a_diagnosis_runs_apart_one_at_a_time_and_a_stale_answer_is_dropped() {
+        let (mut m, calls, _) = diagnosing(1.0, 1.0, std::time::Duration::ZERO);
+        let mut t = 0;
+        let step = |m: &mut Monitor, t: &mut i64| {
+            *t += 10 * MS;
+            m.push(sample(*t, 0.0), "imu", *t);
+        };
+        step(&mut m, &mut t);
+        let job = m.start_diagnosis(t).expect("a round starts once rows exist");
+        for _ in 0..10 {
+            step(&mut m, &mut t);
+            assert!(m.start_diagnosis(t).is_none(), "one diagnosis at a time");
+            let (a, states, _) = m.publication(t);
+            assert_eq!((value(&a, 0, "suggestions"), states.len()), ("", 6));
+        }
+        let done = std::thread::spawn(move || job.run()).join().unwrap();
+        m.finish_diagnosis(done);
+        step(&mut m, &mut t);
+        let (a, _, _) = m.publication(t);
+        assert_eq!(value(&a, 0, "suggestions"), "sinusoid");
+        assert_eq!(value(&a, 0, "samples"), "12");
+        // gyro_y's diagnosis is out when the model changes: its answer is left out.
+        let job = m.start_diagnosis(t).expect("gyro_y");
+        m.reconfigure(Change::Model { axis: None, spec: "N".into() }).unwrap();
+        assert!(m.start_diagnosis(t).is_none(), "one diagnosis at a time");
+        m.finish_diagnosis(job.run());
+        let (a, _, _) = m.publication(t);
+        assert!(!a.status[1].values.iter().any(|kv| kv.key == "diagnosis_ms"), "{:?}", a.status[1]);
+        let job = m.start_diagnosis(t).expect("a round of the new model at once");
+        m.finish_diagnosis(job.run());
+        assert_eq!(calls.lock().unwrap().as_slice(), &[Axis::GyroX, Axis::GyroY, Axis::GyroX]);
+    }
+
+    /// A monitor on [`Diagnosing`] (each diagnosis costing `cost`), diagnosing every `period_s`
+    /// within `share`; the calls it records, and its settings.
+    #[allow(clippy::type_complexity)]
+    fn diagnosing(
+        period_s: f64,
+        share: f64,
+        cost: std::time::Duration,
+    ) -> (Monitor, std::sync::Arc<std::sync::Mutex<Vec<Axis>>>, MonitorSettings) {
+        let calls = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+        let settings = MonitorSettings {
+            diagnosis_period_s: period_s,
+            stale_timeout_s: 100.0,
+            diagnosis_cpu_share: share,
+            ..MonitorSettings::default()
+        };
+        let engine = Diagnosing(calls.clone(), cost, Kept::default());
+        (Monitor::new(settings, Some(Box::new(engine))), calls, settings)
+    }
+
     #[test]
     fn a_costly_round_delays_the_next_by_its_cost_over_the_cpu_share() {
         use std::time::{Duration, Instant};
-        let calls = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
-        let settings = MonitorSettings {
-            diagnosis_period_s: 0.001,
-            stale_timeout_s: 100.0,
-            diagnosis_cpu_share: 0.1,
-            ..MonitorSettings::default()
-        };
-        let engine = Diagnosing(calls.clone(), Duration::from_millis(10), Kept::default());
-        let mut m = Monitor::new(settings, Some(Box::new(engine)));
+        let (mut m, calls, settings) = diagnosing(0.001, 0.1, Duration::from_millis(10));
         let mut t = 0;
         // Reports as fast as they come, 10 ms of node time apart: the period never holds back.
         let mut step = |m: &mut Monitor| {

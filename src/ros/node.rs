@@ -2,24 +2,32 @@
 //! publishers.
 //!
 //! Data flow: the receive loop (the thread that calls [`run`]) takes `imu` messages off DDS. The
-//! [`Monitor`] (checks, counters, the F-DAVAR engine) and the publishers sit behind one mutex. When
-//! the analysis is free and nothing waits in the queue, the receive loop analyses the message
-//! itself; otherwise (the analysis thread is publishing or diagnosing) it `try_send`s it into a
-//! bounded queue that the analysis thread drains, in order; a full queue drops the sample and
-//! counts it, so the subscription never blocks and memory never grows. The analysis thread
-//! publishes `/diagnostics` and `~/<axis>/state` at `publish_rate_hz` (and runs the whole-run
-//! diagnosis then). Parameter changes arrive from ros2-client's parameter services on a channel
-//! and apply between two samples.
+//! [`Monitor`] (checks, counters, the F-DAVAR engine) sits behind one mutex. When the analysis is
+//! free and nothing waits in the queue, the receive loop analyses the message itself; otherwise
+//! (the analysis thread is building a publication) it `try_send`s it into a bounded queue that the
+//! analysis thread drains, in order; a full queue drops the sample and counts it, so the
+//! subscription never blocks and memory never grows. The analysis thread builds `/diagnostics`
+//! and `~/<axis>/state` at `publish_rate_hz` under the lock and publishes them after it.
+//! Parameter changes arrive from ros2-client's parameter services on a channel and apply between
+//! two samples.
+//!
+//! The whole-run diagnosis runs on a thread of its own, without the lock: at a publication the
+//! monitor lends it the engine's whole-run record ([`Monitor::start_diagnosis`]); samples keep
+//! coming into the rows meanwhile, those the record misses wait in the engine (bounded:
+//! [`super::engine::DEFERRED_CAP`]; at the cap the input waits in the queue, which drops and
+//! counts when full) and go into the record, in order, when the diagnosis gives it back
+//! ([`Monitor::finish_diagnosis`], under the lock: about a millisecond). Why: samples that
+//! arrived during a diagnosis used to wait behind it, which made the p99 receive-to-update
+//! latency the diagnosis's cost (119 ms at 2 kHz, docs/ros.md has the measurements).
 //!
 //! Why the receive loop analyses when it can: handing every message to the analysis thread woke
 //! a second thread per message (a futex wake and a context switch on each side); the F-DAVAR
 //! update of six axes costs less than that hand-off. The queue stays for the times the analysis
-//! is busy, so that a diagnosis never blocks the subscription (docs/ros.md, "Node at 2 kHz" in
-//! README has the measured gain).
+//! is busy (docs/ros.md, "Node at 2 kHz" in README has the measured gain).
 
 use super::args::RosArgs;
 use super::dump::DumpWriter;
-use super::monitor::{Change, Monitor, MonitorSettings, RowEngine};
+use super::monitor::{Change, DiagnosisJob, Monitor, MonitorSettings, RowEngine};
 use super::names::{check_node_name, normalise_namespace, resolve, NameError};
 use super::params::{self, ParamError, NODE_PARAMS};
 use crate::msgs::diagnostic_msgs::{DiagnosticArray, KeyValue};
@@ -37,8 +45,8 @@ use ros2_client::{
 use std::collections::BTreeMap;
 use std::pin::Pin;
 use std::sync::atomic::{AtomicBool, AtomicI64, AtomicU64, AtomicUsize, Ordering};
-use std::sync::mpsc::{self, Receiver, RecvTimeoutError, SyncSender, TrySendError};
-use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, SyncSender, TrySendError};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard, TryLockError};
 use std::task::{Context as TaskContext, Poll as TaskPoll};
 use std::time::{Duration, Instant};
 
@@ -238,16 +246,20 @@ impl Latency {
         self.next = (self.next + 1) % Self::CAPACITY;
     }
 
-    /// (p50, p99) in milliseconds, if any sample was recorded.
-    fn percentiles_ms(&self) -> Option<(f64, f64)> {
-        if self.ring.is_empty() {
-            return None;
-        }
-        let mut sorted = self.ring.clone();
-        sorted.sort_by(f64::total_cmp);
-        let at = |q: f64| sorted[((sorted.len() - 1) as f64 * q).round() as usize] * 1e3;
-        Some((at(0.5), at(0.99)))
+}
+
+/// (p50, p99) in milliseconds of the latencies `ring` (a copy of [`Latency`]'s: it is reordered),
+/// if any.
+fn percentiles_ms(ring: &mut [f64]) -> Option<(f64, f64)> {
+    if ring.is_empty() {
+        return None;
     }
+    let last = ring.len() - 1;
+    let mut at = |q: f64| {
+        let k = (last as f64 * q).round() as usize;
+        *ring.select_nth_unstable_by(k, f64::total_cmp).1 * 1e3
+    };
+    Some((at(0.5), at(0.99)))
 }
 
 /// A logger honouring `--log-level`, writing ROS-style lines to stderr.
@@ -479,6 +491,11 @@ pub fn run(
         .spawn(move || futures::executor::block_on(spinner.spin()))
         .map_err(|e| ros_err("spinner thread")(e.to_string()))?;
 
+    let publishers = Publishers {
+        diagnostics: diag_pub,
+        states: state_pubs,
+        log: log.clone(),
+    };
     let queue_size = usize::try_from(config.int("queue_size")).unwrap_or(1);
     let (tx, rx) = mpsc::sync_channel::<Input>(queue_size);
     let drops = Arc::new(AtomicU64::new(0));
@@ -496,8 +513,6 @@ pub fn run(
         monitor,
         settings,
         publish_period: Duration::from_secs_f64(1.0 / config.double("publish_rate_hz")),
-        diag_pub,
-        state_pubs,
         clock: clock.clone(),
         log: log.clone(),
         drops: Arc::clone(&drops),
@@ -512,12 +527,22 @@ pub fn run(
     let shared = Arc::new(Shared {
         analysis: Mutex::new(analysis),
         queued: AtomicUsize::new(0),
+        given_back: Condvar::new(),
     });
+    let (jobs_tx, jobs_rx) = mpsc::channel::<DiagnosisJob>();
+    {
+        // Not joined: a diagnosis still running at shutdown has nothing left to publish to.
+        let shared = Arc::clone(&shared);
+        std::thread::Builder::new()
+            .name("fdavar-diagnose".into())
+            .spawn(move || diagnosis_loop(&shared, &jobs_rx))
+            .map_err(|e| ros_err("diagnosis thread")(e.to_string()))?;
+    }
     let analysis_thread = {
         let shared = Arc::clone(&shared);
         std::thread::Builder::new()
             .name("fdavar-analysis".into())
-            .spawn(move || analysis_loop(&shared, &rx))
+            .spawn(move || analysis_loop(&shared, &rx, &publishers, &jobs_tx))
             .map_err(|e| ros_err("analysis thread")(e.to_string()))?
     };
     log.info(&format!(
@@ -763,6 +788,8 @@ enum HandOver {
 /// The analysis and the count of inputs queued for it but not analysed yet.
 struct Shared {
     analysis: Mutex<Analysis>,
+    /// Notified when a diagnosis has given back what it was lent (the engine takes inputs again).
+    given_back: Condvar,
     /// Inputs sent into the queue and not yet analysed. Only the receive loop increments it, and
     /// the analysis thread decrements it under the lock once an input is analysed: so when the
     /// receive loop holds the lock and reads 0, no earlier input is still waiting, and analysing
@@ -780,7 +807,8 @@ impl Shared {
             .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
-    /// The analysis if it is free now and nothing waits in the queue before the new input.
+    /// The analysis if it is free now, takes an input, and nothing waits in the queue before
+    /// the new input.
     fn free(&self) -> Option<MutexGuard<'_, Analysis>> {
         if self.queued.load(Ordering::SeqCst) != 0 {
             return None;
@@ -790,7 +818,15 @@ impl Shared {
             Err(TryLockError::Poisoned(p)) => p.into_inner(),
             Err(TryLockError::WouldBlock) => return None,
         };
-        (self.queued.load(Ordering::SeqCst) == 0).then_some(guard)
+        (self.queued.load(Ordering::SeqCst) == 0 && guard.monitor.can_take()).then_some(guard)
+    }
+
+    /// `analysis` once its engine takes inputs again (at once unless a lent diagnosis holds as
+    /// many as it may), the lock released meanwhile.
+    fn when_taking<'a>(&self, analysis: MutexGuard<'a, Analysis>) -> MutexGuard<'a, Analysis> {
+        self.given_back
+            .wait_while(analysis, |a| !a.monitor.can_take())
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
     /// Analyses `input` on the calling thread (the receive loop) when the analysis is free,
@@ -814,9 +850,40 @@ impl Shared {
     }
 }
 
+/// Runs the diagnoses the analysis thread starts, and hands each back under the lock.
+fn diagnosis_loop(shared: &Shared, jobs: &Receiver<DiagnosisJob>) {
+    background_priority();
+    while let Ok(job) = jobs.recv() {
+        let done = job.run();
+        shared.lock().monitor.finish_diagnosis(done);
+        shared.given_back.notify_all();
+    }
+}
+
+/// Lowers the calling thread's priority to nice 10 (Linux: a thread's own).
+///
+/// Why for the diagnosis thread: on a busy machine it competes with the receive thread for a
+/// core, and at equal priority a sample can wait a scheduler slice (milliseconds) behind a
+/// diagnosis. At nice 10 the receive thread wins the core; the diagnosis still gets about a
+/// tenth of a contended core, and all of an idle one.
+fn background_priority() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: setpriority only changes the scheduling weight of the calling thread (gettid);
+    // a refusal leaves it as it was.
+    unsafe {
+        libc::setpriority(libc::PRIO_PROCESS, libc::gettid() as libc::id_t, 10);
+    }
+}
+
 /// The analysis thread: analyses what the receive loop queued (in order), applies parameter
-/// changes, publishes at `publish_rate_hz`; ends once the queue is closed and drained.
-fn analysis_loop(shared: &Shared, rx: &Receiver<Input>) {
+/// changes, publishes at `publish_rate_hz` and starts the diagnoses then (on `jobs`); ends once
+/// the queue is closed and drained.
+fn analysis_loop(
+    shared: &Shared,
+    rx: &Receiver<Input>,
+    publishers: &Publishers,
+    jobs: &Sender<DiagnosisJob>,
+) {
     let mut next_publish = Instant::now() + shared.lock().publish_period;
     let mut drops_seen = 0;
     loop {
@@ -829,6 +896,7 @@ fn analysis_loop(shared: &Shared, rx: &Receiver<Input>) {
         let mut analysis = shared.lock();
         let mut next = first;
         while let Some(input) = next {
+            analysis = shared.when_taking(analysis);
             analysis.take(input);
             shared.queued.fetch_sub(1, Ordering::SeqCst);
             next = rx.try_recv().ok();
@@ -836,12 +904,14 @@ fn analysis_loop(shared: &Shared, rx: &Receiver<Input>) {
         analysis.apply_controls();
         if Instant::now() >= next_publish {
             let drops = analysis.drops.load(Ordering::Relaxed);
-            analysis.publish_round(drops - drops_seen);
+            let (array, states, mut latencies) = analysis.publish_round(drops - drops_seen, jobs);
             drops_seen = drops;
             next_publish += analysis.publish_period;
             if next_publish < Instant::now() {
                 next_publish = Instant::now() + analysis.publish_period;
             }
+            drop(analysis);
+            publishers.publish(array, states, percentiles_ms(&mut latencies));
         }
     }
     // The queue is closed and drained (the node is stopping): the last line must be whole.
@@ -859,8 +929,6 @@ struct Analysis {
     monitor: Monitor,
     settings: MonitorSettings,
     publish_period: Duration,
-    diag_pub: Publisher<DiagnosticArray>,
-    state_pubs: Vec<Publisher<AxisState>>,
     clock: NodeClock,
     log: Log,
     drops: Arc<AtomicU64>,
@@ -915,19 +983,36 @@ impl Analysis {
         }
     }
 
-    /// A publication: the `new_drops` since the last one counted, `/diagnostics` and the axis
-    /// states published (with the diagnosis the monitor runs then), the dump flushed.
-    fn publish_round(&mut self, new_drops: u64) {
+    /// A publication: the `new_drops` since the last one counted, the next diagnosis due
+    /// started (sent to `jobs`), the dump flushed; returns `/diagnostics`, the axis states and a
+    /// copy of the latencies, to publish once the lock is released.
+    fn publish_round(
+        &mut self,
+        new_drops: u64,
+        jobs: &Sender<DiagnosisJob>,
+    ) -> (DiagnosticArray, Vec<AxisState>, Vec<f64>) {
         if let Some(line) = self.monitor.add_drops(new_drops) {
             self.log.warn(line);
         }
-        self.publish();
+        let now = self.clock.now_ns();
+        if let Some(job) = self.monitor.start_diagnosis(now) {
+            if let Err(mpsc::SendError(job)) = jobs.send(job) {
+                // The diagnosis thread is gone: diagnose here rather than lose the record.
+                let done = job.run();
+                self.monitor.finish_diagnosis(done);
+            }
+        }
+        let (array, states, line) = self.monitor.publication(now);
+        if let Some(line) = line {
+            self.log.warn(line);
+        }
         // Rows reach the file at each publication, so that it can be read while the node runs.
         if let Some(Err(e)) = self.dump.as_mut().map(DumpWriter::flush) {
             self.log
                 .warn(&format!("dump_json: {e}; no more rows are written"));
             self.dump = None;
         }
+        (array, states, self.latency.ring.clone())
     }
 
     fn dump_rows(&mut self) {
@@ -977,10 +1062,25 @@ impl Analysis {
                 .warn(&format!("parameter {name} = {value:?} has no live effect")),
         }
     }
+}
 
-    fn publish(&mut self) {
-        let (mut array, states, line) = self.monitor.report(self.clock.now_ns());
-        if let Some((p50, p99)) = self.latency.percentiles_ms() {
+/// The node's publishers, used by the analysis thread without the analysis lock.
+struct Publishers {
+    diagnostics: Publisher<DiagnosticArray>,
+    states: Vec<Publisher<AxisState>>,
+    log: Log,
+}
+
+impl Publishers {
+    /// Publishes `/diagnostics`, with the receive-to-update latency's (p50, p99) in ms added to
+    /// each status, and the axis states.
+    fn publish(
+        &self,
+        mut array: DiagnosticArray,
+        states: Vec<AxisState>,
+        latency: Option<(f64, f64)>,
+    ) {
+        if let Some((p50, p99)) = latency {
             for status in &mut array.status {
                 status
                     .values
@@ -990,15 +1090,12 @@ impl Analysis {
                     .push(KeyValue::new("latency_p99_ms", format!("{p99:.3}")));
             }
         }
-        if let Some(line) = line {
-            self.log.warn(line);
-        }
-        if let Err(e) = self.diag_pub.publish(array) {
+        if let Err(e) = self.diagnostics.publish(array) {
             self.log.warn(&format!("publishing /diagnostics: {e:?}"));
         }
         for state in states {
             let index = state.axis.parse::<crate::signal::Axis>().map(|a| a.index());
-            if let Some(publisher) = index.ok().and_then(|i| self.state_pubs.get(i)) {
+            if let Some(publisher) = index.ok().and_then(|i| self.states.get(i)) {
                 if let Err(e) = publisher.publish(state) {
                     self.log.warn(&format!("publishing axis state: {e:?}"));
                 }

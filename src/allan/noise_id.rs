@@ -89,9 +89,13 @@ fn lag1_acf_alpha<I: Iterator<Item = f64>>(decimated: impl Fn() -> I, d_max: u32
     // No buffer: every pass recomputes the values from the phase, with the same operations in
     // the same order as differencing a copy in place would (the same bits). A whole-run record's
     // copy would be as long as the record (16.8 MB at 2²¹ samples).
+    let trend = linear_trend(|| first_differences(decimated()))?;
+    lag1_acf_alpha_from(decimated, trend, 0, d_max)
+}
+
+/// [`lag1_acf_alpha`] from difference order `d` on, the frequency's `trend` known.
+fn lag1_acf_alpha_from<I: Iterator<Item = f64>>(decimated: impl Fn() -> I, trend: Trend, mut d: u32, d_max: u32) -> Option<i32> {
     let frequency = || first_differences(decimated());
-    let trend = linear_trend(frequency)?;
-    let mut d = 0u32;
     loop {
         // The usual depths without a boxed iterator: a virtual call per value cost more than the
         // arithmetic (the same values either way).
@@ -100,12 +104,151 @@ fn lag1_acf_alpha<I: Iterator<Item = f64>>(decimated: impl Fn() -> I, d_max: u32
             1 => lag1_acf(|| first_differences(trend.remove(frequency()))),
             _ => lag1_acf(|| differenced(trend.remove(frequency()), d)),
         }?;
-        let delta = r1 / (1.0 + r1);
-        if delta < 0.25 || d >= d_max {
-            return Some(-(2.0 * delta).round() as i32 - 2 * d as i32);
+        if let Some(alpha) = alpha_at(r1, d, d_max) {
+            return Some(alpha);
         }
         d += 1;
     }
+}
+
+/// α from the lag-1 autocorrelation `r1` at difference order `d`; `None` when the values must be
+/// differenced once more.
+fn alpha_at(r1: f64, d: u32, d_max: u32) -> Option<i32> {
+    let delta = r1 / (1.0 + r1);
+    (delta < 0.25 || d >= d_max).then(|| -(2.0 * delta).round() as i32 - 2 * d as i32)
+}
+
+/// One identification asked of [`identify_each`]: phase `x`, factor `m`, the estimate's `terms`.
+#[derive(Debug, Clone, Copy)]
+pub struct IdJob<'a> {
+    /// Phase data.
+    pub x: &'a [f64],
+    /// Averaging factor.
+    pub m: usize,
+    /// Terms of the estimate α is wanted for (see [`identify`]).
+    pub terms: usize,
+}
+
+/// Jobs whose lag-1 passes run side by side in [`identify_each`].
+const LANES: usize = 4;
+
+/// [`identify`] of each job, the same answers bit for bit, the lag-1 passes of four jobs
+/// side by side.
+///
+/// Why: each pass of the lag-1 method (the mean, the trend, the mean of the detrended values,
+/// the correlation) is one chain of dependent additions over the decimated record, so one job
+/// at a time waits on the adder's latency at every value; side by side, four chains are in
+/// flight. Each job's sums still add their values in the same order as [`identify`]. Consecutive
+/// jobs share a pass: give jobs of about equal length next to each other (the same factor of
+/// several records, or neighbouring factors of one).
+pub fn identify_each(jobs: &[IdJob<'_>], d_max: u32) -> Vec<Option<(i32, NoiseIdMethod)>> {
+    let min_alpha = 2 - 2 * d_max as i32;
+    let mut out = vec![None; jobs.len()];
+    let mut acf = Vec::with_capacity(jobs.len());
+    for (k, job) in jobs.iter().enumerate() {
+        let (x, m) = (job.x, job.m);
+        if m == 0 || x.iter().step_by(m).all(|&v| Some(v) == x.first().copied()) {
+            continue;
+        }
+        if x.len().div_ceil(m) >= ACF_MIN_POINTS {
+            acf.push(k);
+        } else {
+            out[k] = b1_alpha(x, m, job.terms + d_max as usize - 1).map(|a| (a.clamp(min_alpha, 2), NoiseIdMethod::B1));
+        }
+    }
+    for group in acf.chunks(LANES) {
+        let mut lanes: Vec<usize> = group.to_vec();
+        // Longest first: the lanes still active at any index are the first few.
+        lanes.sort_by_key(|&k| std::cmp::Reverse(jobs[k].x.len().div_ceil(jobs[k].m)));
+        let alphas = lag1_side_by_side(std::array::from_fn(|l| lanes.get(l).map(|&k| (jobs[k].x, jobs[k].m))), d_max);
+        for (&k, alpha) in lanes.iter().zip(alphas) {
+            out[k] = alpha.map(|a| (a.clamp(min_alpha, 2), NoiseIdMethod::Lag1Acf));
+        }
+    }
+    out
+}
+
+/// [`lag1_acf_alpha`] of up to [`LANES`] decimated phases (x, m), longest first; the passes
+/// at difference order 0 side by side, any further order one lane at a time.
+fn lag1_side_by_side(lanes: [Option<(&[f64], usize)>; LANES], d_max: u32) -> [Option<i32>; LANES] {
+    let x: [&[f64]; LANES] = lanes.map(|l| l.map_or(&[][..], |l| l.0));
+    let m: [usize; LANES] = lanes.map(|l| l.map_or(1, |l| l.1));
+    // Frequency values: f[j] = x[(j+1)m] − x[jm], j < n (first_differences of the decimated phase).
+    let n: [usize; LANES] = std::array::from_fn(|l| if lanes[l].is_some() { x[l].len().div_ceil(m[l]).saturating_sub(1) } else { 0 });
+    // Each pass carries the last decimated point p = x[jm]: one load per value.
+    let next = |l: usize, j: usize, p: f64| {
+        let v = x[l][(j + 1) * m[l]];
+        (v - p, v)
+    };
+    let first: [f64; LANES] = std::array::from_fn(|l| x[l].first().copied().unwrap_or(0.0));
+    // count_and_mean of the frequency.
+    let sum = side_by_side(n, first.map(|p| (-0.0, p)), |l, j, (s, p)| {
+        let (f, p) = next(l, j, p);
+        (s + f, p)
+    });
+    let ok: [bool; LANES] = n.map(|n| n >= 3);
+    let mean: [f64; LANES] = std::array::from_fn(|l| sum[l].0 / n[l] as f64);
+    // linear_trend.
+    let centre: [f64; LANES] = n.map(|n| n.saturating_sub(1) as f64 / 2.0);
+    let st = side_by_side(n, first.map(|p| (0.0, 0.0, p)), |l, j, (stv, stt, p)| {
+        let (f, p) = next(l, j, p);
+        let t = j as f64 - centre[l];
+        (stv + t * (f - mean[l]), stt + t * t, p)
+    });
+    let trend: [Trend; LANES] = std::array::from_fn(|l| Trend { mean: mean[l], slope: st[l].0 / st[l].1, centre: centre[l] });
+    // The detrended frequency z[j] and the last point.
+    let z = |l: usize, j: usize, p: f64| {
+        let (f, p) = next(l, j, p);
+        (f - trend[l].mean - trend[l].slope * (j as f64 - trend[l].centre), p)
+    };
+    // lag1_acf of the detrended frequency (d = 0): its mean, then the sums.
+    let zsum = side_by_side(n, first.map(|p| (-0.0, p)), |l, j, (s, p)| {
+        let (z, p) = z(l, j, p);
+        (s + z, p)
+    });
+    let zmean: [f64; LANES] = std::array::from_fn(|l| zsum[l].0 / n[l] as f64);
+    // Carrying also the last z − z̄ (the lag-1 partner).
+    let nd = side_by_side(n, first.map(|p| (-0.0, -0.0, 0.0, p)), |l, j, (num, den, before, p)| {
+        let (z, p) = z(l, j, p);
+        let v = z - zmean[l];
+        let num = if j > 0 { num + before * v } else { num };
+        (num, den + v.powi(2), v, p)
+    });
+    let (num, den): ([f64; LANES], [f64; LANES]) = (nd.map(|v| v.0), nd.map(|v| v.1));
+    std::array::from_fn(|l| {
+        if !ok[l] {
+            return None;
+        }
+        let r1 = (den[l] > 0.0).then(|| num[l] / den[l])?;
+        alpha_at(r1, 0, d_max).or_else(|| lag1_acf_alpha_from(|| x[l].iter().step_by(m[l]).copied(), trend[l], 1, d_max))
+    })
+}
+
+/// The fold `acc = step(l, j, acc)` from `init[l]` over j < n[l] of every lane l, in order of j
+/// within each lane; the lanes side by side (`n` descending: the lanes active at j are the first
+/// few).
+#[inline(always)]
+fn side_by_side<S: Copy>(n: [usize; LANES], init: [S; LANES], step: impl Fn(usize, usize, S) -> S) -> [S; LANES] {
+    /// The first `A` lanes at each j of `range`: a constant count, so that the lanes' sums stay
+    /// in registers.
+    #[inline(always)]
+    fn run<const A: usize, S: Copy>(range: std::ops::Range<usize>, acc: &mut [S; LANES], step: &impl Fn(usize, usize, S) -> S) {
+        let mut local: [S; A] = std::array::from_fn(|l| acc[l]);
+        for j in range {
+            for (l, s) in local.iter_mut().enumerate() {
+                *s = step(l, j, *s);
+            }
+        }
+        acc[..A].copy_from_slice(&local);
+    }
+    let mut acc = init;
+    let [n0, n1, n2, n3] = n;
+    debug_assert!(n0 >= n1 && n1 >= n2 && n2 >= n3, "lanes longest first");
+    run::<4, S>(0..n3, &mut acc, &step);
+    run::<3, S>(n3..n2, &mut acc, &step);
+    run::<2, S>(n2..n1, &mut acc, &step);
+    run::<1, S>(n1..n0, &mut acc, &step);
+    acc
 }
 
 /// The first differences of `z`: z'[i] = z[i+1] − z[i].
@@ -318,6 +461,34 @@ mod tests {
             wfm >= 14 && rwfm >= 14,
             "white FM {wfm}/20, random-walk FM {rwfm}/20"
         );
+    }
+
+    proptest::proptest! {
+        // Side by side, the answers are identify's one by one: jobs of several lengths (a lane
+        // ending before the others), kinds of noise (differenced once more or not), B1 jobs,
+        // constant records and m = 0 among them.
+        #[test]
+        fn identify_each_is_identify_one_by_one(
+            seed in 0u64..1000,
+            len in 40usize..3000,
+            walks in 0usize..3,
+            ms in proptest::collection::vec(0usize..200, 1..11),
+        ) {
+            let mut x = white(len, seed);
+            for _ in 0..walks {
+                x = integrate(&x);
+            }
+            let short = integrate(&white(len / 3 + 2, seed + 1));
+            let constant = vec![2.5; len / 2 + 1];
+            let records = [&x[..], &short[..], &constant[..]];
+            let jobs: Vec<IdJob> = ms
+                .iter()
+                .enumerate()
+                .map(|(k, &m)| IdJob { x: records[k % records.len()], m, terms: len / (m + 1) })
+                .collect();
+            let want: Vec<_> = jobs.iter().map(|j| identify(j.x, j.m, 2, j.terms)).collect();
+            proptest::prop_assert_eq!(identify_each(&jobs, 2), want);
+        }
     }
 
     #[test]

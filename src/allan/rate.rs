@@ -130,12 +130,113 @@ pub fn oavar_rate_bridged_in(rate: &[f64], tau0: f64, factors: &[usize], phase: 
 /// The points of [`oavar_rate_counted`] (`bridge` false) or [`oavar_rate_bridged`], the phase
 /// built in `x`.
 fn rate_points(rate: &[f64], tau0: f64, factors: &[usize], bridge: bool, x: &mut Vec<f64>) -> Vec<RatePoint> {
+    rate_points_side_by_side(&[rate], tau0, &[factors], bridge, std::slice::from_mut(x))
+        .pop()
+        .unwrap_or_default()
+}
+
+/// [`oavar_rate_bridged_in`] of several records (each with its factors and phase buffer), the
+/// same points as one after the other, bit for bit.
+///
+/// Why: the noise identification of each point is a few chains of dependent additions over the
+/// decimated record; the records' identifications at one factor run side by side
+/// ([`noise_id::identify_each`]), so records of equal length (the spans of the fit's check)
+/// keep several chains in flight.
+pub(crate) fn oavar_rate_bridged_side_by_side(
+    rates: &[&[f64]],
+    tau0: f64,
+    factors: &[&[usize]],
+    phases: &mut [Vec<f64>],
+) -> Vec<Vec<RatePoint>> {
+    rate_points_side_by_side(rates, tau0, factors, true, phases)
+}
+
+/// A record's strict or bridged sums ([`rate_sums`]).
+struct RecordSums {
+    /// The phase of the valid samples joined, when some sample is invalid (else the phase itself).
+    joined: Option<Vec<f64>>,
+    /// Per usable factor: m, its sums, whether bridged.
+    sums: Vec<(usize, Terms, bool)>,
+}
+
+/// The points of `rates[r]` at `factors[r]`, the phase of record r built in `phases[r]`.
+fn rate_points_side_by_side(
+    rates: &[&[f64]],
+    tau0: f64,
+    factors: &[&[usize]],
+    bridge: bool,
+    phases: &mut [Vec<f64>],
+) -> Vec<Vec<RatePoint>> {
     if !(tau0.is_finite() && tau0 > 0.0) {
-        return Vec::new();
+        return vec![Vec::new(); rates.len()];
     }
-    let Some(reference) = rate.iter().copied().find(|v| v.is_finite()) else {
-        return Vec::new();
-    };
+    let records: Vec<Option<RecordSums>> = rates
+        .iter()
+        .zip(factors)
+        .zip(phases.iter_mut())
+        .map(|((rate, factors), x)| rate_sums(rate, tau0, factors, bridge, x))
+        .collect();
+    let shape = Estimator::Oadev.shape();
+    // One job per point with terms, the records' jobs at the i-th usable factor next to each
+    // other (about equal lengths: see `identify_each`).
+    let mut jobs = Vec::new();
+    let mut at = Vec::new();
+    let longest = records.iter().flatten().map(|r| r.sums.len()).max().unwrap_or(0);
+    for i in 0..longest {
+        for (r, record) in records.iter().enumerate() {
+            let Some(record) = record else { continue };
+            if let Some(&(m, Terms { terms, .. }, _)) = record.sums.get(i).filter(|s| s.1.terms > 0) {
+                let x = record.joined.as_deref().unwrap_or(&phases[r]);
+                jobs.push(noise_id::IdJob { x, m, terms });
+                at.push((r, i));
+            }
+        }
+    }
+    let mut alphas: Vec<Vec<Option<i32>>> = records.iter().map(|r| vec![None; r.as_ref().map_or(0, |r| r.sums.len())]).collect();
+    for ((r, i), id) in at.into_iter().zip(noise_id::identify_each(&jobs, shape.d)) {
+        alphas[r][i] = id.map(|(a, _)| a);
+    }
+    records
+        .into_iter()
+        .zip(alphas)
+        .map(|(record, alphas)| {
+            let Some(record) = record else { return Vec::new() };
+            record
+                .sums
+                .into_iter()
+                .zip(alphas)
+                .filter_map(|((m, Terms { sum, terms, skipped }, bridged), alpha)| {
+                    if terms == 0 {
+                        return None;
+                    }
+                    let tau = m as f64 * tau0;
+                    let avar = sum / (2.0 * tau * tau * terms as f64);
+                    let point = with_confidence(
+                        m,
+                        tau,
+                        avar,
+                        terms,
+                        alpha.unwrap_or(0),
+                        shape,
+                        terms + 2 * m,
+                        super::edf::ONE_SIGMA,
+                    );
+                    Some(RatePoint {
+                        point,
+                        skipped,
+                        alpha,
+                        bridged,
+                    })
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The phase of `rate` (built in `x`) and the strict or bridged sums of each usable factor;
+/// `None` when no sample is valid.
+fn rate_sums(rate: &[f64], tau0: f64, factors: &[usize], bridge: bool, x: &mut Vec<f64>) -> Option<RecordSums> {
+    let reference = rate.iter().copied().find(|v| v.is_finite())?;
     // Built in place, without centred or valid-only copies of the record (a whole-run record
     // holds millions of samples): the same additions, in the same order, as [`super::naive::phase_from_rate`].
     let phase_of = |values: &mut dyn Iterator<Item = f64>, x: &mut Vec<f64>| {
@@ -168,46 +269,21 @@ fn rate_points(rate: &[f64], tau0: f64, factors: &[usize], bridge: bool, x: &mut
         phase_of(&mut rate.iter().filter(|v| v.is_finite()).map(|v| v - reference), &mut joined);
         joined
     });
-    let compact_phase = joined.as_deref().unwrap_or(x);
-    let shape = Estimator::Oadev.shape();
     let usable: Vec<usize> = factors
         .iter()
         .copied()
         .filter(|&m| m > 0 && x.len() > 2 * m)
         .collect();
     let sums = second_difference_sums(x, &bad, &usable);
-    usable
+    let sums = usable
         .iter()
         .zip(sums)
         .map(|(&m, strict)| {
             let bridged = bridge && strict.terms < strict.skipped;
             (m, if bridged { bridged_sums(x, &bad, m) } else { strict }, bridged)
         })
-        .filter_map(|(m, Terms { sum, terms, skipped }, bridged)| {
-            if terms == 0 {
-                return None;
-            }
-            let tau = m as f64 * tau0;
-            let avar = sum / (2.0 * tau * tau * terms as f64);
-            let alpha = noise_id::identify(compact_phase, m, shape.d, terms).map(|(a, _)| a);
-            let point = with_confidence(
-                m,
-                tau,
-                avar,
-                terms,
-                alpha.unwrap_or(0),
-                shape,
-                terms + 2 * m,
-                super::edf::ONE_SIGMA,
-            );
-            Some(RatePoint {
-                point,
-                skipped,
-                alpha,
-                bridged,
-            })
-        })
-        .collect()
+        .collect();
+    Some(RecordSums { joined, sums })
 }
 
 /// The valid squared second differences of one factor: their sum, how many, how many left out.
@@ -356,7 +432,7 @@ fn segment<const CHECK: bool>(
 
 #[cfg(test)]
 mod tests {
-    use super::super::naive;
+    use super::super::{naive, TauGrid};
     use super::*;
     use proptest::prelude::*;
 
@@ -475,6 +551,27 @@ mod tests {
             }
             // Holes 40–120 samples apart: some factor up to n/3 always needs the bridge.
             prop_assert!(k > 0 || factors.iter().all(|&m| 2 * m < every), "no bridged factor");
+        }
+    }
+
+    proptest! {
+        // Records side by side (spans of unequal length, with holes or without, one all NaN)
+        // give each record's own points, bit for bit.
+        #[test]
+        fn side_by_side_equals_one_by_one(y in prop::collection::vec(-10f64..10.0, 300..900), holes in prop::collection::vec(0usize..900, 0..6), cuts in prop::collection::vec((0usize..900, 100usize..500), 1..6)) {
+            let mut y = y;
+            let n = y.len();
+            for h in &holes { y[h % n] = f64::NAN; }
+            let nan = [f64::NAN; 50];
+            let mut rates: Vec<&[f64]> = cuts.iter().map(|&(a, len)| &y[a % n..(a % n + len).min(n)]).collect();
+            rates.push(&nan);
+            let factors: Vec<Vec<usize>> = rates.iter().map(|r| TauGrid::default().factors((r.len() / 3).max(1))).collect();
+            let factor_refs: Vec<&[usize]> = factors.iter().map(Vec::as_slice).collect();
+            let mut phases = vec![vec![f64::NAN; 3]; rates.len()];
+            let got = oavar_rate_bridged_side_by_side(&rates, 0.01, &factor_refs, &mut phases);
+            for ((rate, factors), got) in rates.iter().zip(&factors).zip(got) {
+                prop_assert_eq!(got, oavar_rate_bridged(rate, 0.01, factors));
+            }
         }
     }
 

@@ -11,7 +11,7 @@
 use super::scoring::{rms, z_scores, FAILING_Z};
 use super::types::{FitOptions, Span};
 use super::CurveFit;
-use crate::allan::AllanPoint;
+use crate::allan::{oavar_rate_bridged_side_by_side, AllanPoint};
 use crate::model::measure::{edf_for_mix, NoiseClass};
 use serde::{Deserialize, Serialize};
 
@@ -66,20 +66,36 @@ pub(super) fn measure_spans(series: &[f64], tau0: f64, opts: &FitOptions, phase:
         return Vec::new();
     }
     // Half-overlapping: a change at a span boundary still falls in the middle of one span.
-    (0..2 * count - 1)
-        .map(|i| {
-            let (a, b) = (i * n / (2 * count), (i + 2) * n / (2 * count));
-            let max_m = ((b - a) as f64 * opts.max_m_fraction).floor() as usize;
-            SpanMeasure {
-                span: Span {
-                    start_s: a as f64 * tau0,
-                    end_s: b as f64 * tau0,
-                },
-                points: super::measure(&series[a..b], tau0, &opts.grid.factors(max_m.max(1)), phase).0,
-            }
-        })
-        .collect()
+    let bounds: Vec<(usize, usize)> = (0..2 * count - 1)
+        .map(|i| (i * n / (2 * count), (i + 2) * n / (2 * count)))
+        .collect();
+    let factors: Vec<Vec<usize>> = bounds
+        .iter()
+        .map(|&(a, b)| opts.grid.factors((((b - a) as f64 * opts.max_m_fraction).floor() as usize).max(1)))
+        .collect();
+    // Spans of (about) equal length side by side: their noise identifications share passes
+    // (`oavar_rate_bridged_side_by_side`); a phase buffer each, the first `phase`.
+    let mut phases = vec![std::mem::take(phase)];
+    phases.resize_with(SIDE_BY_SIDE, Vec::new);
+    let mut out = Vec::with_capacity(bounds.len());
+    for (group, factors) in bounds.chunks(SIDE_BY_SIDE).zip(factors.chunks(SIDE_BY_SIDE)) {
+        let rates: Vec<&[f64]> = group.iter().map(|&(a, b)| &series[a..b]).collect();
+        let factors: Vec<&[usize]> = factors.iter().map(Vec::as_slice).collect();
+        let points = oavar_rate_bridged_side_by_side(&rates, tau0, &factors, &mut phases[..group.len()]);
+        out.extend(group.iter().zip(points).map(|(&(a, b), points)| SpanMeasure {
+            span: Span {
+                start_s: a as f64 * tau0,
+                end_s: b as f64 * tau0,
+            },
+            points: points.into_iter().map(|p| p.point).collect(),
+        }));
+    }
+    *phase = std::mem::take(&mut phases[0]);
+    out
 }
+
+/// Spans measured side by side (the lanes of `noise_id::identify_each`).
+const SIDE_BY_SIDE: usize = 4;
 
 /// The whole-record model of `fit` checked on one span: z at each of the span's τ (those with an
 /// EDF of at least [`MIN_SPAN_EDF`]), with the EDF of the model's noise mix for the span's length.

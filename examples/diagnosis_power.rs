@@ -10,11 +10,14 @@
 //! axes that got a suggestion on stderr). `power` hides each effect at a ladder of strengths in
 //! PER_POINT recordings per point (100/200/400 Hz, 20 and 60 min, every mix) and prints a markdown
 //! table; with PNG it also draws the curves; with a list of families (effect ids), only those.
+//! `visible` runs each family (or those listed) at its stated visibility only and also counts the
+//! detections that got a further suggestion beside the truth (a false alarm of the later rounds).
 //! `low-pass` does both on a sensor whose white noise passes a first-order low-pass at CUTOFF·rate
 //! (default 0.3) on every axis: each family at its stated visibility, detected when named first or
 //! second beside `bandwidth` (docs/model.md, "Two effects at once"), and the clean axes that got
 //! anything but `bandwidth`. Runs on two threads.
 //! ```text
+//! cargo run --release --no-default-features --example diagnosis_power -- visible PER_POINT [SEED] [FAMILY,…]
 //! cargo run --release --no-default-features --example diagnosis_power -- low-pass PER_POINT [SEED] [CUTOFF]
 //! ```
 
@@ -26,7 +29,7 @@ use fdavar::model::{diagnose, FitOptions, ModelSpec};
 use fdavar::signal::Axis;
 use plotters::prelude::*;
 use power_common::{
-    clean_low_pass, families, par_map, power_point, record, run_low_pass, settings, spec_yaml, Scale,
+    clean_low_pass, families, par_map, power_point, record, run, run_low_pass, settings, spec_yaml, Scale,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -111,26 +114,10 @@ fn null(recordings: usize, seed: u64) {
 fn low_pass(per_point: usize, seed: u64, cutoff_per_rate: f64) {
     let set = settings(per_point, POWER_GRID, seed);
     println!("low-pass at {cutoff_per_rate}·rate on every axis; {} recordings per family", set.len());
-    println!("| effect | strength | detected | parameters within tolerance (of detected) | named instead |");
-    println!("|---|---|---|---|---|");
     // Without a burst (the simulator's scales `white`, which a low-pass sensor lacks) and the
     // low-pass itself.
     let skipped = |f: &&power_common::Family| f.scale != Scale::AvarDeficit && f.name != id::NOISE_BURST;
-    for family in families().iter().filter(skipped) {
-        let out = par_map(&set, 2, |s| {
-            let mut rng = ChaCha8Rng::seed_from_u64(s.seed ^ 0x9e37_79b9);
-            run_low_pass(s, &(family.make)(s, family.visible, &mut rng), cutoff_per_rate)
-        });
-        let detected = out.iter().filter(|o| o.detected).count();
-        let ok = out.iter().filter(|o| o.params_ok).count();
-        let mut instead: Vec<String> = out.iter().filter_map(|o| o.instead.clone()).collect();
-        instead.sort();
-        instead.dedup();
-        for (s, o) in set.iter().zip(&out).filter(|(_, o)| !o.detected) {
-            eprintln!("{} missed: {} Hz {} min {} seed {}: {:?}", family.name, s.rate, s.minutes, s.mix.name, s.seed, o.suggested);
-        }
-        println!("| {} | {} | {detected}/{} | {ok}/{detected} | {} |", family.name, family.visible, out.len(), instead.join(", "));
-    }
+    visible_table(&set, families().iter().filter(skipped), |s, hidden| run_low_pass(s, hidden, cutoff_per_rate), 2);
     let clean = par_map(&set, 2, |s| clean_low_pass(s, cutoff_per_rate));
     let (mut axes, mut without_filter, mut extra) = (0, 0, 0);
     for (s, per_axis) in set.iter().zip(&clean) {
@@ -144,6 +131,50 @@ fn low_pass(per_point: usize, seed: u64, cutoff_per_rate: f64) {
         }
     }
     println!("clean low-pass axes: {extra}/{axes} with a suggestion besides bandwidth, {without_filter}/{axes} without bandwidth first");
+}
+
+/// Each family at its stated visibility on an ordinary sensor: detected, parameters, and how many
+/// recordings got a suggestion besides the truth (a second-round false alarm).
+fn visible(per_point: usize, seed: u64, only: Option<&str>) {
+    let set = settings(per_point, POWER_GRID, seed);
+    println!("{} recordings per family", set.len());
+    let chosen = families().into_iter().filter(|f| only.is_none_or(|o| o.split(',').any(|n| n == f.name))).collect::<Vec<_>>();
+    visible_table(&set, chosen.iter(), run, 1);
+}
+
+/// The table of [`visible`] and [`low_pass`]: `expected` is how many suggestions a detection
+/// should carry (the truth, and on a low-pass sensor the filter before it); more is an extra.
+fn visible_table<'a>(
+    set: &[power_common::Setting],
+    chosen: impl Iterator<Item = &'a power_common::Family>,
+    run: impl Fn(&power_common::Setting, &power_common::Hidden) -> power_common::Outcome + Sync,
+    expected: usize,
+) {
+    println!("| effect | strength | detected | parameters within tolerance (of detected) | more suggestions (of detected) | named instead |");
+    println!("|---|---|---|---|---|---|");
+    for family in chosen {
+        let out = par_map(set, 2, |s| {
+            let mut rng = ChaCha8Rng::seed_from_u64(s.seed ^ 0x9e37_79b9);
+            run(s, &(family.make)(s, family.visible, &mut rng))
+        });
+        let detected = out.iter().filter(|o| o.detected).count();
+        let ok = out.iter().filter(|o| o.params_ok).count();
+        let more = out.iter().filter(|o| o.detected && o.suggested.len() > expected).count();
+        let mut instead: Vec<String> = out.iter().filter_map(|o| o.instead.clone()).collect();
+        instead.sort();
+        instead.dedup();
+        for (s, o) in set.iter().zip(&out).filter(|(_, o)| !o.detected || o.suggested.len() > expected) {
+            let what = if o.detected { "more" } else { "missed" };
+            eprintln!("{} {what}: {} Hz {} min {} seed {}: {:?}", family.name, s.rate, s.minutes, s.mix.name, s.seed, o.suggested);
+        }
+        println!(
+            "| {} | {} | {detected}/{} | {ok}/{detected} | {more}/{detected} | {} |",
+            family.name,
+            family.visible,
+            out.len(),
+            instead.join(", ")
+        );
+    }
 }
 
 /// One family's detection-rate curve: its name, strength scale and (strength, rate) points.
@@ -248,7 +279,8 @@ fn main() {
             args.get(4).map(String::as_str).filter(|p| *p != "-"),
             args.get(5).map(String::as_str),
         ),
+        Some("visible") => visible(count, seed, args.get(4).map(String::as_str)),
         Some("low-pass") => low_pass(count, seed, args.get(4).and_then(|a| a.parse().ok()).unwrap_or(0.3)),
-        _ => eprintln!("usage: diagnosis_power null|power|low-pass COUNT [SEED] [PNG|-|CUTOFF] [FAMILY,…]"),
+        _ => eprintln!("usage: diagnosis_power null|power|visible|low-pass COUNT [SEED] [PNG|-|CUTOFF] [FAMILY,…]"),
     }
 }

@@ -85,8 +85,9 @@ fn every_parameter_is_printed_with_its_unit_as_the_json_has_it() {
             }
         }
         for (i, s) in a["suggestions"].as_array().unwrap().iter().enumerate() {
-            // A suggestion weighed with others added says so: `add sinusoid with gauss_markov (`.
-            let given: String = s["given"].as_array().unwrap().iter().map(|g| format!(" with {}", g.as_str().unwrap())).collect();
+            // A suggestion weighed with others added says so: `add vibration with bandwidth and sinusoid (`.
+            let given: Vec<&str> = s["given"].as_array().unwrap().iter().map(|g| g.as_str().unwrap()).collect();
+            let given = if given.is_empty() { String::new() } else { format!(" with {}", given.join(" and ")) };
             let head = format!("  suggestion {}: add {}{given} (", i + 1, s["effect"].as_str().unwrap());
             let line = lines.iter().find(|l| l.starts_with(&head)).unwrap_or_else(|| panic!("{axis}: {head}"));
             for (name, p) in s["params"].as_object().unwrap() {

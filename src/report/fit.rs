@@ -170,7 +170,7 @@ pub fn write_suggestions(w: &mut dyn Write, d: &Diagnosis) -> std::io::Result<()
     for (i, s) in d.suggestions.iter().enumerate() {
         let ps: Vec<String> =
             s.params.iter().map(|p| format!("{} = {}", p.name, param_text(p))).collect();
-        let given: String = s.given.iter().map(|g| format!(" with {g}")).collect();
+        let given = if s.given.is_empty() { String::new() } else { format!(" with {}", s.given.join(" and ")) };
         writeln!(
             w,
             "  suggestion {}: add {}{given} ({}) -> fit_error {:.2}\n    {}",

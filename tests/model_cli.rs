@@ -93,3 +93,29 @@ fn diagnose_names_a_hidden_sinusoid_and_fit_removes_it() {
     }
     assert!(Path::new(&figs).is_dir());
 }
+
+/// `diagnose --out` draws one before/after figure per suggestion, each from the model of the one
+/// before: on bags/effects accel_y the Gauss–Markov motion (from N,B,K) and the pump line (from
+/// N,B,K with the Gauss–Markov process).
+#[test]
+fn diagnose_draws_each_suggestion_from_the_model_before_it() {
+    let bag = concat!(env!("CARGO_MANIFEST_DIR"), "/bags/effects");
+    let d = json(&["diagnose", bag, "--axis", "accel_y", "--json"]);
+    let names: Vec<&str> = axis(&d, "accel_y")["suggestions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["effect"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["gauss_markov", "sinusoid"], "{d}");
+    let dir = tempfile::tempdir().unwrap();
+    let out = fdavar(&["diagnose", bag, "--axis", "accel_y", "--out", dir.path().to_str().unwrap()]);
+    assert!(matches!(out.status.code(), Some(0 | 3)), "{}", String::from_utf8_lossy(&out.stderr));
+    let mut pngs: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter(|n| n.starts_with("suggestion_") && n.ends_with(".png"))
+        .collect();
+    pngs.sort();
+    assert_eq!(pngs, ["suggestion_accel_y_gauss_markov.png", "suggestion_accel_y_sinusoid.png"]);
+}

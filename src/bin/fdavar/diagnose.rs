@@ -88,13 +88,13 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         let name = title(bag);
         for d in &diagnoses {
             let axis = d.fit.axis;
-            if let (Some(s), Some(after)) = (d.suggestions.first(), d.after.first()) {
+            // One before/after figure per suggestion, each from the model of the one before: the
+            // error falling step by step, as the rounds added them.
+            let befores = std::iter::once(&d.fit).chain(&d.after);
+            for ((s, after), before) in d.suggestions.iter().zip(&d.after).zip(befores) {
                 let stem = dir.join(format!("suggestion_{axis}_{}", s.effect));
-                fdavar::report::figure::write_allan_comparison(
-                    &comparison_figure(&d.fit, after, &name),
-                    &stem,
-                )
-                .with_context(|| format!("cannot write the before/after figure of {axis}"))?;
+                fdavar::report::figure::write_allan_comparison(&comparison_figure(before, after, &name), &stem)
+                    .with_context(|| format!("cannot write the before/after figure of {axis} with {}", s.effect))?;
             }
         }
     }

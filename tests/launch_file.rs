@@ -11,7 +11,6 @@
 use quick_xml::events::{BytesStart, Event};
 use quick_xml::{Reader, XmlVersion};
 use std::collections::BTreeMap;
-use std::io::{BufRead, BufReader};
 use std::path::Path;
 
 const LAUNCH: &str = "launch/fdavar.launch.xml";
@@ -136,6 +135,8 @@ fn the_launch_file_names_what_the_package_builds_and_installs() {
 #[cfg(feature = "ros")]
 #[test]
 fn the_node_starts_on_the_imu_topic_given() {
+    // Here, not at the top: without the `ros` feature this test, their only user, is not built.
+    use std::io::{BufRead, BufReader};
     let (exec, ros_args) = node_command(root(), "/my/imu");
     assert_eq!(exec, "fdavar_node");
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_fdavar_node"))

@@ -160,9 +160,6 @@ fn visible_table<'a>(
         let detected = out.iter().filter(|o| o.detected).count();
         let ok = out.iter().filter(|o| o.params_ok).count();
         let more = out.iter().filter(|o| o.detected && o.suggested.len() > expected).count();
-        let mut instead: Vec<String> = out.iter().filter_map(|o| o.instead.clone()).collect();
-        instead.sort();
-        instead.dedup();
         for (s, o) in set.iter().zip(&out).filter(|(_, o)| !o.detected || o.suggested.len() > expected) {
             let what = if o.detected { "more" } else { "missed" };
             eprintln!("{} {what}: {} Hz {} min {} seed {}: {:?}", family.name, s.rate, s.minutes, s.mix.name, s.seed, o.suggested);
@@ -172,9 +169,17 @@ fn visible_table<'a>(
             family.name,
             family.visible,
             out.len(),
-            instead.join(", ")
+            named_instead(&out)
         );
     }
+}
+
+/// What the diagnosis named first instead of the hidden effect, each once, sorted.
+fn named_instead(out: &[power_common::Outcome]) -> String {
+    let mut instead: Vec<&str> = out.iter().filter_map(|o| o.instead.as_deref()).collect();
+    instead.sort();
+    instead.dedup();
+    instead.join(", ")
 }
 
 /// One family's detection-rate curve: its name, strength scale and (strength, rate) points.
@@ -191,9 +196,6 @@ fn power(per_point: usize, seed: u64, png: Option<&str>, only: Option<&str>) {
             let out = power_point(&family, strength, &set, 2);
             let detected = out.iter().filter(|o| o.detected).count();
             let ok = out.iter().filter(|o| o.params_ok).count();
-            let mut instead: Vec<String> = out.iter().filter_map(|o| o.instead.clone()).collect();
-            instead.sort();
-            instead.dedup();
             let unit = match family.scale {
                 Scale::AvarPeak => "× base AVAR",
                 Scale::TestSigma => "σ",
@@ -203,7 +205,7 @@ fn power(per_point: usize, seed: u64, png: Option<&str>, only: Option<&str>) {
                 "| {} | {strength} {unit} | {detected}/{} | {ok}/{detected} | {} |",
                 family.name,
                 out.len(),
-                instead.join(", ")
+                named_instead(&out)
             );
             curve.push((strength, detected as f64 / out.len() as f64));
         }

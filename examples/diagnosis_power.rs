@@ -15,10 +15,10 @@
 //! `low-pass` does both on a sensor whose white noise passes a first-order low-pass at CUTOFF·rate
 //! (default 0.3) on every axis: each family at its stated visibility, detected when named first or
 //! second beside `bandwidth` (docs/model.md, "Two effects at once"), and the clean axes that got
-//! anything but `bandwidth`. Runs on two threads.
+//! anything but `bandwidth` (not when families are listed). Runs on two threads.
 //! ```text
 //! cargo run --release --no-default-features --example diagnosis_power -- visible PER_POINT [SEED] [FAMILY,…]
-//! cargo run --release --no-default-features --example diagnosis_power -- low-pass PER_POINT [SEED] [CUTOFF]
+//! cargo run --release --no-default-features --example diagnosis_power -- low-pass PER_POINT [SEED] [CUTOFF] [FAMILY,…]
 //! ```
 
 #[path = "../tests/power_common/mod.rs"]
@@ -111,13 +111,17 @@ fn null(recordings: usize, seed: u64) {
 }
 
 /// The families at their stated visibility and the clean axes, on a low-pass sensor.
-fn low_pass(per_point: usize, seed: u64, cutoff_per_rate: f64) {
+fn low_pass(per_point: usize, seed: u64, cutoff_per_rate: f64, only: Option<&str>) {
     let set = settings(per_point, POWER_GRID, seed);
     println!("low-pass at {cutoff_per_rate}·rate on every axis; {} recordings per family", set.len());
     // Without a burst (the simulator's scales `white`, which a low-pass sensor lacks) and the
     // low-pass itself.
     let skipped = |f: &&power_common::Family| f.scale != Scale::AvarDeficit && f.name != id::NOISE_BURST;
-    visible_table(&set, families().iter().filter(skipped), |s, hidden| run_low_pass(s, hidden, cutoff_per_rate), 2);
+    let chosen = families().into_iter().filter(|f| skipped(&f) && listed(f, only)).collect::<Vec<_>>();
+    visible_table(&set, chosen.iter(), |s, hidden| run_low_pass(s, hidden, cutoff_per_rate), 2);
+    if only.is_some() {
+        return;
+    }
     let clean = par_map(&set, 2, |s| clean_low_pass(s, cutoff_per_rate));
     let (mut axes, mut without_filter, mut extra) = (0, 0, 0);
     for (s, per_axis) in set.iter().zip(&clean) {
@@ -138,8 +142,13 @@ fn low_pass(per_point: usize, seed: u64, cutoff_per_rate: f64) {
 fn visible(per_point: usize, seed: u64, only: Option<&str>) {
     let set = settings(per_point, POWER_GRID, seed);
     println!("{} recordings per family", set.len());
-    let chosen = families().into_iter().filter(|f| only.is_none_or(|o| o.split(',').any(|n| n == f.name))).collect::<Vec<_>>();
+    let chosen = families().into_iter().filter(|f| listed(f, only)).collect::<Vec<_>>();
     visible_table(&set, chosen.iter(), run, 1);
+}
+
+/// Whether `family` is among the comma-separated effect ids of `only` (every family without it).
+fn listed(family: &power_common::Family, only: Option<&str>) -> bool {
+    only.is_none_or(|o| o.split(',').any(|n| n == family.name))
 }
 
 /// The table of [`visible`] and [`low_pass`]: `expected` is how many suggestions a detection
@@ -190,7 +199,7 @@ fn power(per_point: usize, seed: u64, png: Option<&str>, only: Option<&str>) {
     let mut curves: Vec<Curve> = Vec::new();
     println!("| effect | strength | detected | parameters within tolerance (of detected) | named instead |");
     println!("|---|---|---|---|---|");
-    for family in families().into_iter().filter(|f| only.is_none_or(|o| o.split(',').any(|n| n == f.name))) {
+    for family in families().into_iter().filter(|f| listed(f, only)) {
         let mut curve = Vec::new();
         for &strength in ladder(family.scale) {
             let out = power_point(&family, strength, &set, 2);
@@ -282,7 +291,12 @@ fn main() {
             args.get(5).map(String::as_str),
         ),
         Some("visible") => visible(count, seed, args.get(4).map(String::as_str)),
-        Some("low-pass") => low_pass(count, seed, args.get(4).and_then(|a| a.parse().ok()).unwrap_or(0.3)),
+        Some("low-pass") => low_pass(
+            count,
+            seed,
+            args.get(4).and_then(|a| a.parse().ok()).unwrap_or(0.3),
+            args.get(5).map(String::as_str),
+        ),
         _ => eprintln!("usage: diagnosis_power null|power|visible|low-pass COUNT [SEED] [PNG|-|CUTOFF] [FAMILY,…]"),
     }
 }

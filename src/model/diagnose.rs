@@ -172,12 +172,13 @@ pub fn diagnose_planned(
     };
     first.suggestions.truncate(1);
     first.after.truncate(1);
+    // The model so far: `spec` with every suggestion made.
+    let mut model = spec.with(&best);
     let mut given = vec![best];
     while given.len() < MAX_SUGGESTIONS {
         // Its base model was fitted once already (as the last suggestion's refit); should it
         // fail now, the rounds so far stand.
-        let Ok(next) = weigh_once(input, &given.iter().fold(spec.clone(), |m, g| m.with(g)), registry, opts, plans)
-        else {
+        let Ok(next) = weigh_once(input, &model, registry, opts, plans) else {
             break;
         };
         // Only what lowers fit_error below the model with the suggestions so far: a test against
@@ -192,6 +193,7 @@ pub fn diagnose_planned(
             break;
         };
         s.given = given.clone();
+        model = model.with(&s.effect);
         given.push(s.effect.clone());
         first.suggestions.push(s);
         first.after.push(after);
@@ -323,8 +325,8 @@ fn weigh_once(
             }
         }
     }
-    best_first(&mut scored, registry, &regressed);
-    lines_that_stand_out_first(&mut scored, &series, input.tau0, plans);
+    let lines = LineEvidence::of(&scored, &series, input.tau0, plans);
+    best_first(&mut scored, registry, &regressed, &lines);
     if let Some(w) = &base_noise {
         one_drift_one_driver(&mut scored, registry, &regressed, input, &series, w.noise());
     }
@@ -341,7 +343,9 @@ fn weigh_once(
 /// `regressed`: found by a regression, as a trend is on time) whose fit_error after is below
 /// [`DRIVER_PREFERENCE`] times the best shape-only one's, or an effect located in time whose
 /// fit_error after is below the best shape-only one's; then the rest; within each, the largest
-/// gain net of its penalty.
+/// gain net of its penalty. A line the periodogram does not show goes last ([`LineEvidence`]);
+/// a line it shows goes before the effects of smooth spectrum ranked above it
+/// ([`EffectKind::smooth_spectrum`]; below).
 ///
 /// # Formula
 /// ```text
@@ -364,7 +368,30 @@ fn weigh_once(
 /// the step's 0.94–1.0. Not with the driver's margin: its test reads the axis alone, like a
 /// shape's (on the ADIS16405's accel_x a ×1.045 louder span, 5.92 after, would have come before
 /// the 10 Hz line, 4.31).
-fn best_first<T>(scored: &mut [(Suggestion, f64, T)], registry: &[&'static dyn EffectKind], regressed: &[&str]) {
+///
+/// Why lines by the periodogram, both ways: on the Allan variance a sinusoid's bump and a
+/// Gauss–Markov process's are alike (their nulls sit where a record of a few hundred correlation
+/// times has few degrees of freedom), and on a low-pass sensor a Gauss–Markov process of short
+/// time constant follows a line *and* the filter's deficit at once, so its χ² gain is the larger.
+/// By gain alone, a sinusoid's bump took a Gauss–Markov process's place (5–8 of 100 Gauss–Markov
+/// recordings missed at 4–16× the base AVAR, before unshown lines went last), and on a 0.3·rate
+/// low-pass sensor a Gauss–Markov process came first on 3 of 20 hidden sinusoids and 8 of 20
+/// hidden second lines (before shown lines went first; docs/model.md, "Two effects at once"). In
+/// the spectrum they differ by kind: a line stands out of its neighbourhood (570–740 times its
+/// median for a line 6× the base AVAR at its peak), a Gauss–Markov process is a smooth shoulder
+/// (1–7). Only over smooth spectra: undithered quantization of a slow signal has idle tones
+/// (on a 20 min accel_z with gravity and q = 10⁻³ a sinusoid and a second line went before the
+/// quantization they were). And a driven effect whose driver is periodic (a robot's motion
+/// felt through g-sensitivity) shows as a line too, and it names the cause: such an effect moves
+/// instead of the line when its fit_error after is below [`DRIVER_PREFERENCE`] times the line's
+/// (the line moved before the filter took 8 of 20 low-pass g-sensitivity detections: 19.25 after
+/// the line, 19.60 after g-sensitivity, on one).
+fn best_first<T>(
+    scored: &mut [(Suggestion, f64, T)],
+    registry: &[&'static dyn EffectKind],
+    regressed: &[&str],
+    lines: &LineEvidence,
+) {
     let kind = |s: &Suggestion| registry.iter().find(|k| k.id() == s.effect);
     let driven = |s: &Suggestion| {
         regressed.contains(&s.effect.as_str())
@@ -381,42 +408,82 @@ fn best_first<T>(scored: &mut [(Suggestion, f64, T)], registry: &[&'static dyn E
         let net = gain - (SPECTRAL_PENALTY + SHAPE_PENALTY * shapes);
         let preferred = (driven(s) && s.fit_error_after < DRIVER_PREFERENCE * best_shape_only)
             || (located(s) && s.fit_error_after < best_shape_only);
-        (!preferred, -net)
+        let tier = if preferred {
+            0
+        } else if lines.shown(s) == Some(LineShown::Nowhere) {
+            2
+        } else {
+            1
+        };
+        (tier, -net)
     };
     scored.sort_by(|a, b| {
         let (ra, rb) = (rank(a), rank(b));
         ra.0.cmp(&rb.0).then(ra.1.total_cmp(&rb.1))
     });
+    // The first suggestion that is not a smooth shape moves before those when it is a line the
+    // periodogram shows; a driven effect that explains about as much as that line (the
+    // preference's margin) moves instead: the line is then its driver's.
+    let smooth = |s: &Suggestion| kind(s).is_some_and(|k| k.smooth_spectrum());
+    let Some(first) = scored.iter().position(|(s, ..)| !smooth(s)) else {
+        return;
+    };
+    let line = &scored[first].0;
+    if lines.shown(line) == Some(LineShown::Anywhere) {
+        let line_after = line.fit_error_after;
+        let moved = scored
+            .iter()
+            .position(|(s, ..)| driven(s) && s.fit_error_after < DRIVER_PREFERENCE * line_after)
+            .unwrap_or(first);
+        scored[..=moved].rotate_right(1);
+    }
 }
 
-/// Moves a line (a suggestion with a frequency: `sinusoid`, `vibration`) after every other
-/// suggestion when the record's periodogram shows no line at its frequency
-/// ([`Periodogram::line_support`]); the order is kept otherwise, and a line is never dropped.
+/// How far the record's periodogram shows a candidate line ([`LineEvidence::shown`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum LineShown {
+    /// Not out of its neighbourhood ([`crate::model::fit::LineSupport::holds`] false).
+    Nowhere,
+    /// Out of its neighbourhood, not beyond what the strongest bin of the whole periodogram
+    /// reaches by chance.
+    Locally,
+    /// Beyond the strongest bin of noise alone anywhere ([`crate::model::fit::LineSupport::holds_anywhere`]): the
+    /// candidate's frequency was searched over the whole periodogram.
+    Anywhere,
+}
+
+/// Whether the record's periodogram shows each candidate line ([`Periodogram::line_support`]).
 ///
-/// Why: on the Allan variance a sinusoid's bump can take a Gauss–Markov process's (their nulls
-/// sit where a record of a few hundred correlation times has few degrees of freedom), and its
-/// χ² gain then ranked it first — the 5–8 of 100 Gauss–Markov recordings missed at 4–16× the
-/// base AVAR (docs/model.md, power curves; none now). A periodic disturbance is one line in the
-/// spectrum, a Gauss–Markov process a smooth shoulder: measured, the largest power within 10 % of
-/// a fitted frequency over its neighbourhood's median is 570–740 for a line 6× the base AVAR at
-/// its peak and 1–7 on a Gauss–Markov shoulder (unit tests of `Periodogram`), against thresholds
-/// of 13–14. The periodogram is computed only when the order can change (a line and something
-/// else).
-fn lines_that_stand_out_first<T>(scored: &mut [(Suggestion, f64, T)], series: &[f64], tau0: f64, plans: &Plans) {
-    let frequency = |s: &Suggestion| s.params.iter().find(|p| p.name == FREQUENCY_PARAM).map(|p| p.value);
-    if !scored.iter().any(|(s, ..)| frequency(s).is_some()) || scored.iter().all(|(s, ..)| frequency(s).is_some()) {
-        return;
+/// Computed only when the order can change: a line among the suggestions and something that is
+/// not one. Otherwise no line is judged (every [`LineEvidence::shown`] is `None`).
+struct LineEvidence(Option<Periodogram>);
+
+impl LineEvidence {
+    fn of<T>(scored: &[(Suggestion, f64, T)], series: &[f64], tau0: f64, plans: &Plans) -> Self {
+        let lines = scored.iter().filter(|(s, ..)| line_frequency(s).is_some()).count();
+        if lines == 0 || lines == scored.len() {
+            return LineEvidence(None);
+        }
+        LineEvidence(Periodogram::of(series, tau0, plans))
     }
-    let Some(periodogram) = Periodogram::of(series, tau0, plans) else {
-        return;
-    };
-    let unsupported = |s: &Suggestion| {
-        frequency(s)
-            .and_then(|f| periodogram.line_support(f))
-            .is_some_and(|support| !support.holds())
-    };
-    // A stable sort: the rest keep their order.
-    scored.sort_by_key(|(s, ..)| unsupported(s));
+
+    /// How far the periodogram shows the line `s`; `None` for a suggestion that is not a line or
+    /// a line it cannot judge (too few periods or bins).
+    fn shown(&self, s: &Suggestion) -> Option<LineShown> {
+        let support = self.0.as_ref()?.line_support(line_frequency(s)?)?;
+        Some(if support.holds_anywhere() {
+            LineShown::Anywhere
+        } else if support.holds() {
+            LineShown::Locally
+        } else {
+            LineShown::Nowhere
+        })
+    }
+}
+
+/// The frequency of a line suggestion (`sinusoid`, `vibration`), `None` for any other.
+fn line_frequency(s: &Suggestion) -> Option<f64> {
+    s.params.iter().find(|p| p.name == FREQUENCY_PARAM).map(|p| p.value)
 }
 
 /// The outcome of one test, before it is named.

@@ -51,6 +51,10 @@ impl Extra for BandwidthExtra {
         let slowest = exponential::FILTER_MEMORY_TAUS * tau_min;
         (index == 1).then(|| (1.0 / (2.0 * PI * slowest), 2.0 / tau_min))
     }
+    /// White noise through a first-order low-pass, S(f) = n²/(1 + (f/f_c)²): no line.
+    fn smooth_spectrum(&self) -> bool {
+        true
+    }
 }
 
 /// White rate noise of density `n` passed through a first-order low-pass of cut-off `cutoff_hz`,

@@ -47,6 +47,10 @@ impl Extra for GaussMarkovExtra {
     fn search_range(&self, index: usize, tau_min: f64, tau_max: f64) -> Option<(f64, f64)> {
         (index == 1).then_some((exponential::FILTER_MEMORY_TAUS * tau_min, 4.0 * tau_max))
     }
+    /// A Lorentzian shoulder, S(f) = 4σ²T/(1 + (2πfT)²): no line.
+    fn smooth_spectrum(&self) -> bool {
+        true
+    }
 }
 
 /// A first-order Gauss–Markov bias of steady-state deviation `sigma` and correlation time T.

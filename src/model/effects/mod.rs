@@ -338,6 +338,13 @@ pub trait EffectKind: Sync {
     fn follows(&self) -> Option<&'static dyn EffectKind> {
         None
     }
+    /// Whether the effect's spectrum is smooth, without lines (a Gauss–Markov process, a
+    /// low-pass): on the Allan variance it can mimic a line's bump, in the periodogram it cannot,
+    /// so the diagnosis names a line the periodogram shows before it. `false` (the default): not
+    /// known to be (undithered quantization of a slow signal has idle tones).
+    fn smooth_spectrum(&self) -> bool {
+        false
+    }
 }
 
 /// A time-domain estimator that lives in its effect's file: how the fitter estimates the effect
@@ -413,6 +420,10 @@ pub(super) trait Extra: Sync {
     fn follows(&self) -> Option<&'static dyn EffectKind> {
         None
     }
+    /// As [`EffectKind::smooth_spectrum`].
+    fn smooth_spectrum(&self) -> bool {
+        false
+    }
 }
 
 /// The [`Extra`] of a kind whose one addition is its time-domain estimator.
@@ -462,6 +473,9 @@ impl<E: Extra> EffectKind for Extended<E> {
     }
     fn follows(&self) -> Option<&'static dyn EffectKind> {
         self.extra.follows()
+    }
+    fn smooth_spectrum(&self) -> bool {
+        self.extra.smooth_spectrum()
     }
 }
 

@@ -45,12 +45,24 @@ pub struct LineSupport {
     pub ratio: f64,
     /// The ratio noise alone exceeds with probability [`LINE_ALPHA`].
     pub threshold: f64,
+    /// The ratio the largest bin of the whole periodogram exceeds with probability [`LINE_ALPHA`]
+    /// on noise alone: the threshold for a line whose frequency was searched everywhere (a
+    /// candidate's scan starts from the periodogram's strongest peaks, [`Periodogram::peaks`]; the
+    /// largest of 6·10⁴ bins of a smooth spectrum is about 17 times the median, above `threshold`
+    /// for a low frequency, whose line bins are few: about 12 for 5 bins).
+    pub threshold_anywhere: f64,
 }
 
 impl LineSupport {
-    /// Whether the line stands out: `ratio ≥ threshold`.
+    /// Whether the line stands out of its neighbourhood: `ratio ≥ threshold`.
     pub fn holds(&self) -> bool {
         self.ratio >= self.threshold
+    }
+
+    /// Whether the line stands out even as the strongest of the whole periodogram would by chance:
+    /// `ratio ≥ threshold_anywhere`.
+    pub fn holds_anywhere(&self) -> bool {
+        self.ratio >= self.threshold_anywhere
     }
 }
 
@@ -133,6 +145,7 @@ impl Periodogram {
     /// ```text
     /// p = 1 − (1 − 2^(−r))^m,   threshold r at p = LINE_ALPHA
     /// ```
+    /// with m the line's bins (`threshold`), or every bin of the periodogram (`threshold_anywhere`).
     /// (Schuster's periodogram test, Fisher's g for the largest of several ordinates; here against
     /// a local median, robust to the colour of the noise and to other lines).
     pub fn line_support(&self, frequency_hz: f64) -> Option<LineSupport> {
@@ -158,10 +171,13 @@ impl Periodogram {
             return None;
         }
         let peak = self.power[lo..=hi].iter().copied().fold(0.0, f64::max);
-        let searched = (hi - lo + 1) as f64;
         // p = 1 − (1 − 2^(−r))^m = α  ⇔  2^(−r) = 1 − (1 − α)^(1/m).
-        let threshold = -(-((-LINE_ALPHA).ln_1p() / searched).exp_m1()).log2();
-        Some(LineSupport { ratio: peak / median, threshold })
+        let threshold_of = |searched: usize| -(-((-LINE_ALPHA).ln_1p() / searched as f64).exp_m1()).log2();
+        Some(LineSupport {
+            ratio: peak / median,
+            threshold: threshold_of(hi - lo + 1),
+            threshold_anywhere: threshold_of(self.power.len()),
+        })
     }
 }
 
@@ -193,12 +209,29 @@ mod tests {
         for seed in 0..5 {
             let with_line = Periodogram::of(&simulated(&[&line], seed), 0.01, &Plans::default()).unwrap();
             let s = with_line.line_support(0.05).unwrap();
-            assert!(s.holds(), "seed {seed}: {s:?}");
+            assert!(s.holds() && s.holds_anywhere(), "seed {seed}: {s:?}");
             let with_gm = Periodogram::of(&simulated(&[&gm], seed), 0.01, &Plans::default()).unwrap();
             for f in [0.03, 0.05, 0.08] {
                 let s = with_gm.line_support(f).unwrap();
                 assert!(!s.holds(), "seed {seed}, {f} Hz: {s:?}");
             }
+        }
+    }
+
+    #[test]
+    fn the_strongest_peak_of_noise_is_not_a_line_anywhere() {
+        // A candidate's frequency comes from the periodogram's strongest peaks: on white noise
+        // alone the strongest of 60 000 bins is about (ln 60 000 + γ)/ln 2 ≈ 17 times the median,
+        // below the whole periodogram's threshold of log2(60 000/α) ≈ 26 — and above a local
+        // threshold of a few bins (log2(5/α) ≈ 12).
+        for seed in 0..20 {
+            let p = Periodogram::of(&simulated(&[], seed), 0.01, &Plans::default()).unwrap();
+            let (f, _) = p.peaks(1)[0];
+            let Some(s) = p.line_support(f) else { continue };
+            assert!((10.0..25.0).contains(&s.ratio), "seed {seed}, {f} Hz: {s:?}");
+            assert!(!s.holds_anywhere(), "seed {seed}, {f} Hz: {s:?}");
+            let bins = p.power.len() as f64;
+            assert!((s.threshold_anywhere - (bins / LINE_ALPHA).log2()).abs() < 0.01, "{s:?}");
         }
     }
 

@@ -1057,9 +1057,15 @@ pub fn p_of_t2(t2: f64, tests: usize) -> f64 {
 /// hidden quantization (tests/hidden_effects.rs, seeds 81 and 82).
 pub fn tail_factor(series: &[f64], tau0: f64) -> f64 {
     let n = block_len(tau0);
-    let diffs: Vec<f64> = series.windows(2).map(|w| w[1] - w[0]).filter(|d| d.is_finite()).collect();
     let (mut sum, mut blocks) = (0.0, 0usize);
-    for block in diffs.chunks_exact(n) {
+    // One block of differences at a time (the record may hold millions); a last partial block is
+    // left out.
+    let mut block = Vec::with_capacity(n);
+    for d in series.windows(2).map(|w| w[1] - w[0]).filter(|d| d.is_finite()) {
+        block.push(d);
+        if block.len() < n {
+            continue;
+        }
         let mean = block.iter().sum::<f64>() / n as f64;
         let (m2, m4) = block.iter().fold((0.0, 0.0), |(m2, m4), d| {
             let c = (d - mean) * (d - mean);
@@ -1069,6 +1075,7 @@ pub fn tail_factor(series: &[f64], tau0: f64) -> f64 {
             sum += m4 * n as f64 / (m2 * m2);
             blocks += 1;
         }
+        block.clear();
     }
     if blocks == 0 {
         return 1.0;

@@ -452,32 +452,40 @@ enum LineShown {
     Anywhere,
 }
 
-/// Whether the record's periodogram shows each candidate line ([`Periodogram::line_support`]).
+/// Whether the record's periodogram shows each candidate line ([`Periodogram::line_support`]),
+/// judged once per line: the ranking asks at every comparison.
 ///
-/// Computed only when the order can change: a line among the suggestions and something that is
+/// Judged only when the order can change: a line among the suggestions and something that is
 /// not one. Otherwise no line is judged (every [`LineEvidence::shown`] is `None`).
-struct LineEvidence(Option<Periodogram>);
+struct LineEvidence(Vec<(String, LineShown)>);
 
 impl LineEvidence {
     fn of<T>(scored: &[(Suggestion, f64, T)], series: &[f64], tau0: f64, plans: &Plans) -> Self {
         let lines = scored.iter().filter(|(s, ..)| line_frequency(s).is_some()).count();
         if lines == 0 || lines == scored.len() {
-            return LineEvidence(None);
+            return LineEvidence(Vec::new());
         }
-        LineEvidence(Periodogram::of(series, tau0, plans))
+        let Some(periodogram) = Periodogram::of(series, tau0, plans) else {
+            return LineEvidence(Vec::new());
+        };
+        let judged = scored.iter().filter_map(|(s, ..)| {
+            let support = periodogram.line_support(line_frequency(s)?)?;
+            let shown = if support.holds_anywhere() {
+                LineShown::Anywhere
+            } else if support.holds() {
+                LineShown::Locally
+            } else {
+                LineShown::Nowhere
+            };
+            Some((s.effect.clone(), shown))
+        });
+        LineEvidence(judged.collect())
     }
 
-    /// How far the periodogram shows the line `s`; `None` for a suggestion that is not a line or
-    /// a line it cannot judge (too few periods or bins).
+    /// How far the periodogram shows the line `s` (a round suggests each effect once); `None`
+    /// for a suggestion that is not a line or a line it cannot judge (too few periods or bins).
     fn shown(&self, s: &Suggestion) -> Option<LineShown> {
-        let support = self.0.as_ref()?.line_support(line_frequency(s)?)?;
-        Some(if support.holds_anywhere() {
-            LineShown::Anywhere
-        } else if support.holds() {
-            LineShown::Locally
-        } else {
-            LineShown::Nowhere
-        })
+        self.0.iter().find(|(effect, _)| *effect == s.effect).map(|&(_, shown)| shown)
     }
 }
 

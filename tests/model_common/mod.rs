@@ -110,6 +110,26 @@ pub fn low_pass_recording(
     simulated(&low_pass)
 }
 
+/// The temperature profile of [`power_on_recording`]: 20 → 45 °C with a 5-minute time constant
+/// from the first sample, no wobble, published at 10 Hz.
+pub const POWER_ON_WARM_UP: &str =
+    "{ start_c: 20.0, end_c: 45.0, time_constant_s: 300, cycle_amplitude_c: 0.0, cycle_period_s: 100, rate_hz: 10 }";
+
+/// [`recording`] of a sensor switched on with the recording: its temperature rises at once
+/// ([`POWER_ON_WARM_UP`]), where the suite's other profile warms up over the whole record with a
+/// wobble in its middle.
+pub fn power_on_recording(seed: u64, rate_hz: f64, minutes: f64, extra: &[(Axis, EffectValues)]) -> Recording {
+    let yaml = spec_yaml(seed, rate_hz, minutes, extra, &[])
+        .lines()
+        .map(|line| match line.starts_with("temperature: ") {
+            true => format!("temperature: {POWER_ON_WARM_UP}"),
+            false => line.to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    simulated(&yaml)
+}
+
 /// The recording the real simulator makes of `yaml`, laid out as a bag is.
 fn simulated(yaml: &str) -> Recording {
     let spec = fdavar::sim::SimSpec::from_yaml(yaml).unwrap_or_else(|e| panic!("{e}\n{yaml}"));

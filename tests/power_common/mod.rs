@@ -392,7 +392,7 @@ pub fn families() -> Vec<Family> {
         Family { name: id(&Quantization::new(1.0).unwrap()), scale: Scale::AvarPeak, make: quantization, visible: 0.5 },
         Family { name: id(&BiasStep::new(1.0, 1.0).unwrap()), scale: Scale::TestSigma, make: bias_step, visible: 24.0 },
         Family { name: id(&NoiseBurst::new(0.0, 1.0, 2.0).unwrap()), scale: Scale::TestSigma, make: noise_burst, visible: 16.0 },
-        Family { name: id(&Temperature::new(1.0).unwrap()), scale: Scale::TestSigma, make: temperature, visible: 16.0 },
+        Family { name: id(&Temperature::new(1.0).unwrap()), scale: Scale::TestSigma, make: temperature, visible: 12.0 },
         Family { name: id(&GSensitivity::new(0.0, 1.0).unwrap()), scale: Scale::TestSigma, make: g_sensitivity, visible: 24.0 },
         Family { name: id(&Bandwidth::new(1.0, 1.0).unwrap()), scale: Scale::AvarDeficit, make: bandwidth, visible: 0.2 },
         Family { name: id(&Vibration::new(1.0, 1.0).unwrap()), scale: Scale::AvarPeak, make: vibration, visible: 4.0 },

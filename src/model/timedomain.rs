@@ -347,6 +347,37 @@ impl NoiseSpectrum {
         (2.0 * (std::f64::consts::PI * f * self.tau0).sin()).powi(2) * self.rate_psd(f)
     }
 
+    /// Variance of the mean rate over the `after` seconds following a time minus that over the
+    /// `before` seconds preceding it: 2σ²_A(W) when both are W.
+    ///
+    /// # Formula
+    /// ```text
+    /// var = D_θ(A)/A² + D_θ(B)/B² − (D_θ(A+B) − D_θ(A) − D_θ(B))/(AB)
+    /// white PM   2a·(1/A² + 1/B² + 1/(AB))
+    /// white FM   a·(1/A + 1/B)
+    /// flicker    h·[((A+B)²·ln(A+B) − A²·ln A − B²·ln B)/(AB) − ln A − ln B],  h = a/(2 ln 2)
+    /// RW FM      a·(A + B)
+    /// ```
+    /// with D_θ the angle's structure function of [`block_regression`] (flicker's infrared
+    /// constant cancels; the random walk's rate is a Brownian motion of diffusion 3a, its means
+    /// on the two sides independent given the value between them).
+    pub fn contrast_variance(&self, before: f64, after: f64) -> f64 {
+        let (a_s, b_s) = (before, after);
+        self.parts
+            .iter()
+            .map(|&(class, a)| match class {
+                NoiseClass::WhitePm => 2.0 * a * (1.0 / (a_s * a_s) + 1.0 / (b_s * b_s) + 1.0 / (a_s * b_s)),
+                NoiseClass::WhiteFm => a * (1.0 / a_s + 1.0 / b_s),
+                NoiseClass::FlickerFm => {
+                    let xlnx = |x: f64| x * x * x.ln();
+                    a / (2.0 * std::f64::consts::LN_2)
+                        * ((xlnx(a_s + b_s) - xlnx(a_s) - xlnx(b_s)) / (a_s * b_s) - a_s.ln() - b_s.ln())
+                }
+                NoiseClass::RandomWalkFm => a * (a_s + b_s),
+            })
+            .sum()
+    }
+
     /// Structure function of the rate, E[(y(t+τ) − y(t))²], at τ ≥ τ0.
     pub fn rate_structure(&self, tau: f64) -> f64 {
         let tau0 = self.tau0;
@@ -889,6 +920,8 @@ pub struct StepScan {
     pub window: usize,
     positions: f64,
     lambda2: f64,
+    /// Contrasts tested at the ends besides the scan ([`STEP_END_SPLITS`] per end).
+    end_positions: f64,
 }
 
 impl StepScan {
@@ -899,9 +932,14 @@ impl StepScan {
         let tail = erfc((t2 / 2.0).sqrt());
         let rice = tail
             + 2.0 * self.positions * self.lambda2.sqrt() / (2.0 * std::f64::consts::PI) * (-0.5 * t2).exp();
-        (self.positions * tail).min(rice).min(1.0)
+        ((self.positions * tail).min(rice) + self.end_positions * tail).min(1.0)
     }
 }
+
+/// Shorter windows at each end of the record for [`step_scan`]: W/2, W/4, … W/2^k on the side
+/// that has less than W. Why: the scan compares two full windows, so a step within W of either
+/// end had none on one side (docs/model.md, "Known limits": at 12 s and 36 s of 20 min, 0 of 3).
+const STEP_END_SPLITS: u32 = 4;
 
 /// Longest and shortest step windows, as fractions of the record.
 const STEP_WINDOW_RANGE: (f64, f64) = (1.0 / 60.0, 1.0 / 6.0);
@@ -962,6 +1000,22 @@ pub fn step_scan(y: &[f64], noise: &NoiseSpectrum) -> Option<StepScan> {
     let lambda2 = ((4.0 * noise.rate_structure(wt) - noise.rate_structure(2.0 * wt)) / (wf * wf) / var_d).max(0.0);
     // Fewer finite samples next to a gap: a larger variance there.
     let var_d = var_d * inflate;
+    // At each end, a window of W/2^k on the short side against W on the other, each contrast
+    // against its own variance.
+    let short: Vec<usize> = (1..=STEP_END_SPLITS).map(|k| w >> k).filter(|&a| a >= 2).collect();
+    let ends = short
+        .iter()
+        .flat_map(|&a| [(a, a, w), (n - a, w, a)])
+        .filter_map(|(i, before, after)| {
+            let (d, inflate) = prefix.contrast_between(i, before, after)?;
+            let var = noise.contrast_variance(before as f64 * tau0, after as f64 * tau0) * inflate;
+            (var > 0.0).then_some((i, d, var))
+        })
+        .max_by(|a, b| (a.1 * a.1 / a.2).total_cmp(&(b.1 * b.1 / b.2)));
+    let (index, size, var_d) = match ends {
+        Some(end) if end.1 * end.1 / end.2 > size * size / var_d => end,
+        _ => (index, size, var_d),
+    };
     let mut scan = StepScan {
         index,
         size,
@@ -971,6 +1025,7 @@ pub fn step_scan(y: &[f64], noise: &NoiseSpectrum) -> Option<StepScan> {
         window: w,
         positions: (n - 2 * w + 1) as f64,
         lambda2,
+        end_positions: 2.0 * short.len() as f64,
     };
     scan.p_value = scan.p_at(scan.t2);
     Some(scan)
@@ -1021,13 +1076,19 @@ impl FinitePrefix {
     /// w / min(c₁, c₂) by which fewer samples inflate its variance (exact for white noise,
     /// conservative for coloured). `None` when a window is less than half finite.
     fn contrast(&self, i: usize, w: usize) -> Option<(f64, f64)> {
+        self.contrast_between(i, w, w)
+    }
+
+    /// [`FinitePrefix::contrast`] with `before` samples before `i` and `after` from it: the
+    /// factor is the larger of the two windows' length / finite count.
+    fn contrast_between(&self, i: usize, before: usize, after: usize) -> Option<(f64, f64)> {
         let mean = |a: usize, b: usize| {
             let c = self.finite(a, b);
-            (2 * c >= w && c > 0).then(|| ((self.sum[b] - self.sum[a]) / c as f64, c))
+            (2 * c >= b - a && c > 0).then(|| ((self.sum[b] - self.sum[a]) / c as f64, c))
         };
-        let (after, ca) = mean(i, i + w)?;
-        let (before, cb) = mean(i - w, i)?;
-        Some((after - before, w as f64 / ca.min(cb) as f64))
+        let (later, ca) = mean(i, i + after)?;
+        let (earlier, cb) = mean(i - before, i)?;
+        Some((later - earlier, (after as f64 / ca as f64).max(before as f64 / cb as f64)))
     }
 }
 
@@ -1096,6 +1157,8 @@ pub fn block_len(tau0: f64) -> usize {
 /// # Formula
 /// ```text
 /// D(i) = mean(y[i..i+W]) − mean(y[i−W..i]),   i* = argmax |D(i)|,   size = D(i*)
+/// within W of an end: the window on the short side is a = i (or n − i), down to W/16,
+///   and D(i)² is compared in units of (1/a + 1/W)/(2/W), its variance under white noise
 /// ```
 /// W = n/30 samples: long enough to average the white noise, short enough that a random walk
 /// does not look like a step.
@@ -1112,6 +1175,17 @@ pub fn find_step(y: &[f64]) -> (usize, f64, f64) {
         .filter_map(|i| contrast(i).map(|(d, d2)| (i, d, d2)))
         .max_by(|a, b| a.2.total_cmp(&b.2))
         .unwrap_or((0, 0.0, 0.0));
+    // Within W of an end: a shorter window on that side (down to W/16), its D² in units of the
+    // two-window variance under white noise, (1/a + 1/W)/(2/W) times the full one's.
+    let shortest = (w >> STEP_END_SPLITS).max(1);
+    let ends = (shortest..w).flat_map(|a| [(a, a, w), (n - a, w, a)]).filter_map(|(i, before, after)| {
+        let (d, inflate) = prefix.contrast_between(i, before, after)?;
+        let a = before.min(after) as f64;
+        let white = (1.0 / a + 1.0 / w as f64) * w as f64 / 2.0;
+        Some((i, d, d * d / (inflate * white)))
+    });
+    let (best_i, best_d, best_d2) =
+        ends.fold((best_i, best_d, best_d2), |best, end| if end.2 > best.2 { end } else { best });
     // E[D²] = 2σ²_A(W·τ0) for stationary noise; estimated robustly from the median of D² on a
     // grid of positions (a step touches only 2W of them): median(χ²₁) = 0.4549.
     let mut d2: Vec<f64> = (w..=n - w).step_by((w / 4).max(1)).filter_map(|i| contrast(i).map(|c| c.1)).collect();
@@ -1523,6 +1597,41 @@ mod tests {
         let s = step_scan(&y, &spectrum).unwrap();
         assert!(s.p_value < 1e-6 && (s.index as i64 - 25_000).abs() < s.window as i64 / 2, "{s:?}");
         assert!((s.size - size).abs() < 2.0 * s.sigma, "{s:?}");
+    }
+
+    #[test]
+    fn a_step_near_either_end_is_found_with_a_shorter_window_there() {
+        // The scan's two full windows cannot straddle a step within W of an end; the shorter
+        // windows at the ends can (W/2 … W/16), each against its own variance.
+        let (tau0, n) = (0.01, 60_000);
+        let (clean, spectrum) = coloured(n, 5, tau0);
+        let quiet = step_scan(&clean, &spectrum).unwrap();
+        assert!(quiet.p_value > 0.01, "{quiet:?}");
+        let w = quiet.window;
+        for at in [w / 5, n - w / 5] {
+            let mut y = clean.clone();
+            let size = 12.0 * quiet.sigma;
+            y.iter_mut().skip(at).for_each(|v| *v += size);
+            let s = step_scan(&y, &spectrum).unwrap();
+            assert!(s.p_value < 1e-4 && s.index.abs_diff(at) <= w / 8, "step at {at} (W {w}): {s:?}");
+            let (i, d, _) = find_step(&y);
+            assert!(i.abs_diff(at) <= w / 8 && (d / size - 1.0).abs() < 0.5, "step at {at}: found {i}, {d:e}");
+        }
+    }
+
+    #[test]
+    fn a_contrast_of_two_equal_windows_has_twice_the_allan_variance() {
+        // contrast_variance(W, W) = 2σ²_A(W) for each class; unequal windows of white FM give
+        // a·(1/A + 1/B), the variance of a difference of two independent means.
+        for class in [NoiseClass::WhitePm, NoiseClass::WhiteFm, NoiseClass::FlickerFm, NoiseClass::RandomWalkFm] {
+            let one = NoiseSpectrum { tau0: 0.01, parts: vec![(class, 2.0)] };
+            for w in [0.05, 3.0, 70.0] {
+                let (c, a) = (one.contrast_variance(w, w), 2.0 * one.avar(w));
+                assert!((c / a - 1.0).abs() < 1e-12, "{class:?} at {w} s: {c} vs {a}");
+            }
+        }
+        let white = NoiseSpectrum { tau0: 0.01, parts: vec![(NoiseClass::WhiteFm, 2.0)] };
+        assert!((white.contrast_variance(0.5, 8.0) - 2.0 * (2.0 + 0.125)).abs() < 1e-12);
     }
 
     /// A gap (NaN run) in a series far from zero is no step: the window means leave it out. Read

@@ -52,7 +52,8 @@ pub(super) static KIND: Extended<WithEstimator> =
 ///
 /// # Formula
 /// ```text
-/// D(i) = mean(y[i..i+W]) − mean(y[i−W..i]),   i* = argmax |D(i)|
+/// D(i) = mean(y[i..i+W]) − mean(y[i−W..i]),   i* = argmax |D(i)|   (a shorter window on the
+///        short side within W of an end)
 /// time_s = i*·τ0,   size = D(i*)
 /// removed: y[n] −= size   for n ≥ round(time_s/τ0)
 /// ```

@@ -220,6 +220,35 @@ fn temperature_warm_up_at_power_on() {
     }
 }
 
+/// A line of three periods in the record (a thermal cycle of 400 s in 20 min): its Allan bump
+/// sits at τ ≈ 150 s, where the record holds few degrees of freedom, and N, B, K take much of it
+/// in (fit_error only about 2); its Fourier bin does not spread. Named by the periodogram's line
+/// test (docs/model.md, "How the diagnosis decides"); by the Allan χ² alone none of these three was.
+#[test]
+fn a_slow_line_of_three_periods() {
+    let nbk = ModelSpec::parse_in("N,B,K", KINDS).unwrap();
+    let truth = [SLOW_LINE_AMPLITUDE, 3.0 / 1200.0];
+    for seed in [81, 82, 83] {
+        let rec = recording(seed, 100.0, 20.0, &[(Axis::GyroZ, ("sinusoid", truth.to_vec()))], &[]);
+        for axis in Axis::ALL {
+            let d = diagnose(&rec.input(axis), &nbk, KINDS, &FitOptions::default()).unwrap();
+            let names: Vec<&str> = d.suggestions.iter().map(|s| s.effect.as_str()).collect();
+            if axis == Axis::GyroZ {
+                assert_eq!(names, ["sinusoid"], "seed {seed}: fit_error {:.2}", d.fit.fit_error);
+                for (p, t) in d.suggestions[0].params.iter().zip(truth) {
+                    assert!((p.value / t - 1.0).abs() <= 0.10, "seed {seed}: {} {:.4e}, truth {t:.4e}", p.name, p.value);
+                }
+            } else {
+                assert!(names.is_empty(), "seed {seed}: {axis} got {names:?}");
+            }
+        }
+    }
+}
+
+/// The slow line's amplitude, rad/s: 2.7 times the gyro's white N·√(rate) per sample, about 8
+/// times the noise of its 10 s means.
+const SLOW_LINE_AMPLITUDE: f64 = 4e-4;
+
 #[test]
 fn g_sensitivity() {
     let motion = |axis, f: f64| Some((axis, "sinusoid", vec![0.5, f]));

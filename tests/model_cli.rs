@@ -95,8 +95,10 @@ fn diagnose_names_a_hidden_sinusoid_and_fit_removes_it() {
 }
 
 /// `diagnose --out` draws one before/after figure per suggestion, each from the model of the one
-/// before: on bags/effects accel_y the Gauss–Markov motion (from N,B,K) and the pump line (from
-/// N,B,K with the Gauss–Markov process).
+/// before: on bags/effects accel_y the Gauss–Markov motion (from N,B,K), the pump line (from
+/// N,B,K with the Gauss–Markov process) and the motor's weaker line at 7 Hz (with both; named
+/// since a line's periodogram test reads 10 % of its frequency around the fit's, which places it
+/// at 7.45 Hz).
 #[test]
 fn diagnose_draws_each_suggestion_from_the_model_before_it() {
     let bag = concat!(env!("CARGO_MANIFEST_DIR"), "/bags/effects");
@@ -107,7 +109,12 @@ fn diagnose_draws_each_suggestion_from_the_model_before_it() {
         .iter()
         .map(|s| s["effect"].as_str().unwrap())
         .collect();
-    assert_eq!(names, ["gauss_markov", "sinusoid"], "{d}");
+    assert_eq!(names, ["gauss_markov", "sinusoid", "vibration"], "{d}");
+    let motor = &axis(&d, "accel_y")["suggestions"][2]["params"];
+    for (name, truth) in [("frequency_hz", 7.0), ("amplitude", 0.12)] {
+        let got = motor[name]["value"].as_f64().unwrap();
+        assert!((got / truth - 1.0).abs() <= 0.10, "the motor's line: {name} {got}, truth {truth}");
+    }
     let dir = tempfile::tempdir().unwrap();
     let out = fdavar(&["diagnose", bag, "--axis", "accel_y", "--out", dir.path().to_str().unwrap()]);
     assert!(matches!(out.status.code(), Some(0 | 3)), "{}", String::from_utf8_lossy(&out.stderr));
@@ -117,5 +124,8 @@ fn diagnose_draws_each_suggestion_from_the_model_before_it() {
         .filter(|n| n.starts_with("suggestion_") && n.ends_with(".png"))
         .collect();
     pngs.sort();
-    assert_eq!(pngs, ["suggestion_accel_y_gauss_markov.png", "suggestion_accel_y_sinusoid.png"]);
+    assert_eq!(
+        pngs,
+        ["suggestion_accel_y_gauss_markov.png", "suggestion_accel_y_sinusoid.png", "suggestion_accel_y_vibration.png"]
+    );
 }

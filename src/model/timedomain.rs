@@ -13,7 +13,7 @@
 //! ([`estimation_rank`](crate::model::effects::TimeEstimator::estimation_rank) says why).
 
 use crate::model::effects::{EffectKind, Evidence, UNRANKED};
-use crate::model::fit::{AxisInput, FitError};
+use crate::model::fit::{AxisInput, FitError, LINE_WIDTH};
 use crate::model::measure::NoiseClass;
 use nalgebra::{DMatrix, DVector};
 use realfft::{num_complex::Complex, RealFftPlanner, RealToComplex};
@@ -604,8 +604,9 @@ impl Whitened {
     }
 
     /// A line's evidence near `f` Hz: the strongest ordinate of the weighted periodogram within
-    /// [`LINE_BINS`] bins of `f`, leaving out the bins within [`LINE_BINS`] + 1 of any frequency
-    /// in `taken` (lines the model already holds). `None` when no bin is left.
+    /// max([`LINE_BINS`], [`LINE_WIDTH`]·f) bins of `f`, leaving out the bins within one more
+    /// than that of any frequency in `taken` (lines the model already holds). `None` when no bin
+    /// is left.
     ///
     /// Why: a line's Allan bump sits at τ ≈ 0.37/f, where a record of a few periods has few
     /// degrees of freedom; its Fourier power does not spread. A line 32× the base Allan variance
@@ -614,7 +615,7 @@ impl Whitened {
     ///
     /// # Formula
     /// ```text
-    /// r = max over |k − f·n·τ0| ≤ LINE_BINS of |Y_k|²/C_kk,   p = min(1, K·e^(−r))
+    /// r = max over |k − f·n·τ0| ≤ reach(f) of |Y_k|²/C_kk,   p = min(1, K·e^(−r))
     /// ```
     /// with Y_k and C_kk those of the GLS ([`Whitened`]). Under the base noise each Y_k is complex
     /// Gaussian of variance C_kk, so |Y_k|²/C_kk is a unit exponential; p is the Bonferroni bound
@@ -627,10 +628,14 @@ impl Whitened {
     pub fn line_power(&self, f: f64, taken: &[f64]) -> Option<LinePower> {
         let bins = self.spectrum.len();
         let per_hz = self.len as f64 * self.noise.tau0;
-        let off = |k: usize, g: f64| (k as f64 - g * per_hz).abs();
-        let statistic = (1..bins.saturating_sub(1))
-            .filter(|&k| off(k, f) <= LINE_BINS as f64)
-            .filter(|&k| taken.iter().all(|&g| off(k, g) > (LINE_BINS + 1) as f64))
+        let (centre, reach) = (f * per_hz, line_reach(f, per_hz));
+        if !(centre.is_finite() && centre > 0.0) {
+            return None;
+        }
+        let first = (centre - reach).ceil().max(1.0) as usize;
+        let last = ((centre + reach).floor() as usize).min(bins.saturating_sub(2));
+        let statistic = (first..=last)
+            .filter(|&k| taken.iter().all(|&g| (k as f64 - g * per_hz).abs() > line_reach(g, per_hz) + 1.0))
             .map(|k| self.spectrum[k].norm_sqr() / self.cov(k, 0))
             .filter(|r| r.is_finite())
             .max_by(f64::total_cmp)?;
@@ -681,10 +686,18 @@ impl Whitened {
     }
 }
 
-/// How many bins either side of a line's fitted frequency [`Whitened::line_power`] reads: the
-/// Hann taper spreads a line over its bin and the two beside it, and the Allan fit's frequency
-/// is within a bin or so of the truth.
+/// Least number of bins either side of a line's fitted frequency [`Whitened::line_power`] reads:
+/// the Hann taper spreads a line over its bin and the two beside it.
 pub const LINE_BINS: usize = 2;
+
+/// How far, in bins, from a line's fitted frequency `f` (Hz) [`Whitened::line_power`] reads, for
+/// `per_hz` bins per Hz: max([`LINE_BINS`], [`LINE_WIDTH`]·f). Why a share of f: the Allan fit
+/// places a line beside a stronger one only roughly (a second line at 0.07 Hz beside one at 0.05
+/// Hz, 20 min: fitted at 0.0741 Hz, 5 bins off), and a real line is a narrow band — the reach of
+/// [`crate::model::fit::Periodogram::line_support`].
+fn line_reach(f: f64, per_hz: f64) -> f64 {
+    (LINE_WIDTH * f * per_hz).max(LINE_BINS as f64)
+}
 
 /// The evidence of [`Whitened::line_power`].
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -241,7 +241,9 @@ fn weigh_once(
                 };
                 let test = spectral_test(kind, &before, &after, registry);
                 let line = || {
-                    line_test(kind, &after, base_noise.as_ref()?, &taken, registry, input.tau0).filter(|t| t.significant)
+                    let f = frequency_of(&after.term(kind.id())?.params)?;
+                    let bound = spectrum_at_bound(&after, registry, input.tau0, false);
+                    line_test(&base_noise.as_ref()?.with_noise(&bound)?, f, &taken).filter(|t| t.significant)
                 };
                 (if test.significant { test } else { line().unwrap_or(test) }, after)
             }
@@ -745,10 +747,10 @@ fn spectral_test<F: Scored>(
     }
 }
 
-/// The periodogram's evidence of the line `kind` at the frequency `after` fitted
-/// ([`Whitened::line_power`] of the series `base` holds, bins near the lines in `taken` left
-/// out), against the noise of `after` without its lines, every term at its upper bound. `None`
-/// for an effect that is not a line.
+/// The periodogram's evidence of a line at `f` Hz, the frequency the fit with the line placed it
+/// at ([`Whitened::line_power`], bins near the lines in `taken` left out), weighed against
+/// `noise`: the series weighted by the noise of that fit without its lines, every term at its
+/// upper bound ([`spectrum_at_bound`]).
 ///
 /// A second test beside [`spectral_test`], which decides when it falls short: the Allan variance
 /// resolves a line of a few periods per record poorly, its Fourier bin does not. Why the noise
@@ -757,16 +759,7 @@ fn spectral_test<F: Scored>(
 /// noise, 83 times the noise of the fit with the line at its bound). Why at the bound: a slow
 /// line competes with the random walk, which an unresolved K (zero on a short record) would
 /// understate, as for a trend.
-fn line_test(
-    kind: &dyn EffectKind,
-    after: &FittedModel,
-    base: &Whitened,
-    taken: &[f64],
-    registry: &[&'static dyn EffectKind],
-    tau0: f64,
-) -> Option<Test> {
-    let f = frequency_of(&after.term(kind.id())?.params)?;
-    let noise = base.with_noise(&spectrum_at_bound(after, registry, tau0, false))?;
+fn line_test(noise: &Whitened, f: f64, taken: &[f64]) -> Option<Test> {
     let power = noise.line_power(f, taken)?;
     Some(Test::by_p(power.statistic, power.p_at(power.statistic), |r| power.p_at(r)))
 }

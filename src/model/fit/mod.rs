@@ -47,7 +47,7 @@ mod spans;
 mod types;
 
 pub use covariance::tau_correlation;
-pub use periodogram::{LineSupport, Periodogram, LINE_ALPHA, LINE_WIDTH};
+pub use periodogram::{line_reach, LineSupport, Periodogram, LINE_ALPHA, LINE_BINS, LINE_WIDTH};
 pub use scoring::{failing_tau, fit_error, z_scores, FAILING_Z};
 pub use spans::{SpanCheck, DEFAULT_SPANS, MIN_SPAN_EDF, MIN_SPAN_SAMPLES};
 pub use types::{

@@ -22,6 +22,20 @@ pub const LINE_ALPHA: f64 = 1e-3;
 /// band (the ADIS16405's accel lines: 0.537–0.586 Hz).
 pub const LINE_WIDTH: f64 = 0.1;
 
+/// Least number of bins either side of a line's frequency that [`line_reach`] gives: the Hann
+/// taper spreads a line over its bin and the two beside it.
+pub const LINE_BINS: usize = 2;
+
+/// How far, in bins, from a line at `frequency_hz` a search for it reads, for `bins_per_hz` bins
+/// per Hz: max([`LINE_BINS`], [`LINE_WIDTH`]·f). Why a share of f: the Allan fit places a line
+/// beside a stronger one only roughly (a second line at 0.07 Hz beside one at 0.05 Hz, 20 min:
+/// fitted at 0.0741 Hz, 5 bins off), and a real line is a narrow band. Read by
+/// [`Periodogram::line_support`] and [`crate::model::timedomain::Whitened::line_power`], so that
+/// the two look in the same bins.
+pub fn line_reach(frequency_hz: f64, bins_per_hz: f64) -> f64 {
+    (LINE_WIDTH * frequency_hz * bins_per_hz).max(LINE_BINS as f64)
+}
+
 /// Least number of reference bins around a frequency for [`Periodogram::line_support`] to decide.
 const MIN_REFERENCE_BINS: usize = 24;
 
@@ -154,7 +168,7 @@ impl Periodogram {
         if !k.is_finite() || k <= 0.0 {
             return None;
         }
-        let half = (LINE_WIDTH * k).max(2.0);
+        let half = line_reach(frequency_hz, 1.0 / self.bin_hz);
         let (lo, hi) = (((k - half).ceil().max(1.0)) as usize, ((k + half).floor() as usize).min(last));
         let (rlo, rhi) = (((k / 2.0).ceil().max(1.0)) as usize, ((k * 2.0).floor() as usize).min(last));
         if lo > hi || rlo > rhi {

@@ -9,7 +9,8 @@
 
 mod power_common;
 
-use power_common::{bias_step_at, clean, families, par_map, power_point, run, settings};
+use fdavar::model::effects::id;
+use power_common::{bias_step_at, clean, families, par_map, power_point, run, settings, Setting};
 
 /// Rates (Hz) and lengths (min) of the CI-sized runs.
 const GRID: &[(f64, f64)] = &[(100.0, 20.0), (200.0, 10.0), (400.0, 10.0)];
@@ -18,7 +19,15 @@ const GRID: &[(f64, f64)] = &[(100.0, 20.0), (200.0, 10.0), (400.0, 10.0)];
 fn clean_axes_rarely_get_a_suggestion() {
     // 36 six-axis recordings: 216 clean axes. ≤ 2 % is ≤ 4 of them.
     let set = settings(36, GRID, 30_000);
-    let flagged: Vec<String> = par_map(&set, 2, |s| {
+    let flagged = flagged_clean_axes(&set);
+    println!("clean axes with a suggestion: {}/{}: {flagged:#?}", flagged.len(), 6 * set.len());
+    assert!(flagged.len() * 50 <= 6 * set.len(), "{flagged:#?}");
+}
+
+/// The axes of clean six-axis recordings in `set` that got a suggestion, each with its setting
+/// and what was suggested.
+fn flagged_clean_axes(set: &[Setting]) -> Vec<String> {
+    par_map(set, 2, |s| {
         clean(s)
             .into_iter()
             .zip(fdavar::signal::Axis::ALL)
@@ -26,9 +35,7 @@ fn clean_axes_rarely_get_a_suggestion() {
             .map(|(names, axis)| format!("{} Hz {} min {} seed {} {axis}: {names:?}", s.rate, s.minutes, s.mix.name, s.seed))
             .collect::<Vec<_>>()
     })
-    .concat();
-    println!("clean axes with a suggestion: {}/{}: {flagged:#?}", flagged.len(), 6 * set.len());
-    assert!(flagged.len() * 50 <= 6 * set.len(), "{flagged:#?}");
+    .concat()
 }
 
 /// Each family at its stated visibility (tests/power_common `Family::visible`, read off the measured
@@ -68,4 +75,43 @@ fn a_step_near_an_end_of_the_record_is_named_a_step() {
     let instead: Vec<_> = outcomes.iter().filter_map(|o| o.instead.clone()).collect();
     println!("a step at 6 % or 95 % of the record, 24 σ: named first {named}/{}, instead {instead:?}", outcomes.len());
     assert!(named * 10 >= 9 * outcomes.len(), "{named}/{}: {instead:?}", outcomes.len());
+}
+
+/// Rates and lengths no threshold was tuned on (docs/model.md, "Power and false alarms"): a
+/// logger's 1 Hz over 10 h, 10 Hz over an hour, 1 kHz over 10 min.
+const FAR_GRID: &[(f64, f64)] = &[(1.0, 600.0), (10.0, 60.0), (1000.0, 10.0)];
+
+/// Clean axes at the far rates: a suggestion on at most 2 % of 72 (measured with the ad-hoc
+/// probe of docs/model.md: 0 of 288 at 1 Hz, 10 Hz and 1 kHz).
+#[test]
+fn clean_axes_at_far_rates_rarely_get_a_suggestion() {
+    let set = settings(12, FAR_GRID, 50_000);
+    let flagged = flagged_clean_axes(&set);
+    println!("clean axes at far rates with a suggestion: {}/{}: {flagged:#?}", flagged.len(), 6 * set.len());
+    assert!(flagged.len() * 50 <= 6 * set.len(), "{flagged:#?}");
+}
+
+/// Every family at its stated visibility at 10 Hz and 1 kHz (four recordings each): named first
+/// on at least 90 % of all of them, parameters within tolerance on at least 90 % of those
+/// (measured with the probe: 16/16 named per family, 15–16 within tolerance). At 1 kHz only: the
+/// second line (at up to 7.3 Hz, above 10 Hz's Nyquist frequency) and the low-pass, whose
+/// cut-off is measured less well at low rates (docs/model.md, "Known limits": at 10 Hz for an
+/// hour 2 of these seeds' 2 were 1.8 and 1.2 tolerances off). 1 Hz is left out: the families'
+/// Gauss–Markov time constants of 0.5 and 2 s are a filter's there.
+#[test]
+fn hidden_effects_are_named_at_far_rates() {
+    let both = settings(4, &FAR_GRID[1..], 60_000);
+    let fast = settings(4, &FAR_GRID[2..], 60_000);
+    let mut lines = Vec::new();
+    let (mut total, mut named, mut within) = (0, 0, 0);
+    for family in families() {
+        let set = if [id::VIBRATION, id::BANDWIDTH].contains(&family.name) { &fast } else { &both };
+        let out = power_point(&family, family.visible, set, 2);
+        let detected = out.iter().filter(|o| o.detected).count();
+        let ok = out.iter().filter(|o| o.params_ok).count();
+        (total, named, within) = (total + out.len(), named + detected, within + ok);
+        lines.push(format!("{}: named {detected}/{}, within tolerance {ok}", family.name, out.len()));
+    }
+    println!("{lines:#?}");
+    assert!(named * 10 >= 9 * total && within * 10 >= 9 * named, "named {named}/{total}, within {within}: {lines:#?}");
 }

@@ -604,9 +604,9 @@ impl Whitened {
     }
 
     /// A line's evidence near `f` Hz: the strongest ordinate of the weighted periodogram within
-    /// [`line_reach`] bins of `f` (two, or 10 % of f when that is more), leaving out the bins within one more
-    /// than that of any frequency in `taken` (lines the model already holds). `None` when no bin
-    /// is left.
+    /// [`line_reach`] bins of `f` (two, or 10 % of f when that is more), leaving out the bins
+    /// within one more than that of any frequency in `taken` (lines the model already holds).
+    /// `None` when no bin is left.
     ///
     /// Why: a line's Allan bump sits at τ ≈ 0.37/f, where a record of a few periods has few
     /// degrees of freedom; its Fourier power does not spread. A line 32× the base Allan variance

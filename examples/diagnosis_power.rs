@@ -16,9 +16,13 @@
 //! (default 0.3) on every axis: each family at its stated visibility, detected when named first or
 //! second beside `bandwidth` (docs/model.md, "Two effects at once"), and the clean axes that got
 //! anything but `bandwidth` (not when families are listed). Runs on two threads.
+//! `wide` is `visible` with the parameters drawn from wide continuous ranges
+//! (`power_common::wide_families`) over the rates and lengths of `power_common::WIDE_GRID`, at
+//! TIMES × the stated visibility (default 1).
 //! ```text
 //! cargo run --release --no-default-features --example diagnosis_power -- visible PER_POINT [SEED] [FAMILY,…]
 //! cargo run --release --no-default-features --example diagnosis_power -- low-pass PER_POINT [SEED] [CUTOFF] [FAMILY,…]
+//! cargo run --release --no-default-features --example diagnosis_power -- wide PER_POINT [SEED] [TIMES] [FAMILY,…]
 //! ```
 
 #[path = "../tests/power_common/mod.rs"]
@@ -29,7 +33,8 @@ use fdavar::model::{diagnose, FitOptions, ModelSpec};
 use fdavar::signal::Axis;
 use plotters::prelude::*;
 use power_common::{
-    clean_low_pass, families, par_map, power_point, record, run, run_low_pass, settings, spec_yaml, Scale,
+    clean_low_pass, families, par_map, power_point, record, run, run_low_pass, settings, spec_yaml, wide_families, Scale,
+    WIDE_GRID,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -118,7 +123,7 @@ fn low_pass(per_point: usize, seed: u64, cutoff_per_rate: f64, only: Option<&str
     // low-pass itself.
     let skipped = |f: &&power_common::Family| f.scale != Scale::AvarDeficit && f.name != id::NOISE_BURST;
     let chosen = families().into_iter().filter(|f| skipped(&f) && listed(f, only)).collect::<Vec<_>>();
-    visible_table(&set, chosen.iter(), |s, hidden| run_low_pass(s, hidden, cutoff_per_rate), 2);
+    visible_table(&set, chosen.iter(), |s, hidden| run_low_pass(s, hidden, cutoff_per_rate), 2, 1.0);
     if only.is_some() {
         return;
     }
@@ -143,7 +148,16 @@ fn visible(per_point: usize, seed: u64, only: Option<&str>) {
     let set = settings(per_point, POWER_GRID, seed);
     println!("{} recordings per family", set.len());
     let chosen = families().into_iter().filter(|f| listed(f, only)).collect::<Vec<_>>();
-    visible_table(&set, chosen.iter(), run, 1);
+    visible_table(&set, chosen.iter(), run, 1, 1.0);
+}
+
+/// [`visible`] at `times` × the stated visibility with the parameters drawn wide, at the rates and
+/// lengths of `WIDE_GRID`.
+fn wide(per_point: usize, seed: u64, times: f64, only: Option<&str>) {
+    let set = settings(per_point, WIDE_GRID, seed);
+    println!("{} recordings per family, parameters drawn wide, {times} × the stated visibility", set.len());
+    let chosen = wide_families().into_iter().filter(|f| listed(f, only)).collect::<Vec<_>>();
+    visible_table(&set, chosen.iter(), run, 1, times);
 }
 
 /// Whether `family` is among the comma-separated effect ids of `only` (every family without it).
@@ -151,20 +165,22 @@ fn listed(family: &power_common::Family, only: Option<&str>) -> bool {
     only.is_none_or(|o| o.split(',').any(|n| n == family.name))
 }
 
-/// The table of [`visible`] and [`low_pass`]: `expected` is how many suggestions a detection
-/// should carry (the truth, and on a low-pass sensor the filter before it); more is an extra.
+/// The table of [`visible`], [`wide`] and [`low_pass`] at `times` × each family's stated
+/// visibility: `expected` is how many suggestions a detection should carry (the truth, and on a
+/// low-pass sensor the filter before it); more is an extra.
 fn visible_table<'a>(
     set: &[power_common::Setting],
     chosen: impl Iterator<Item = &'a power_common::Family>,
     run: impl Fn(&power_common::Setting, &power_common::Hidden) -> power_common::Outcome + Sync,
     expected: usize,
+    times: f64,
 ) {
     println!("| effect | strength | detected | parameters within tolerance (of detected) | more suggestions (of detected) | named instead |");
     println!("|---|---|---|---|---|---|");
     for family in chosen {
         let out = par_map(set, 2, |s| {
             let mut rng = ChaCha8Rng::seed_from_u64(s.seed ^ 0x9e37_79b9);
-            run(s, &(family.make)(s, family.visible, &mut rng))
+            run(s, &(family.make)(s, times * family.visible, &mut rng))
         });
         let detected = out.iter().filter(|o| o.detected).count();
         let ok = out.iter().filter(|o| o.params_ok).count();
@@ -176,7 +192,7 @@ fn visible_table<'a>(
         println!(
             "| {} | {} | {detected}/{} | {ok}/{detected} | {more}/{detected} | {} |",
             family.name,
-            family.visible,
+            times * family.visible,
             out.len(),
             named_instead(&out)
         );
@@ -291,12 +307,18 @@ fn main() {
             args.get(5).map(String::as_str),
         ),
         Some("visible") => visible(count, seed, args.get(4).map(String::as_str)),
+        Some("wide") => wide(
+            count,
+            seed,
+            args.get(4).and_then(|a| a.parse().ok()).unwrap_or(1.0),
+            args.get(5).map(String::as_str),
+        ),
         Some("low-pass") => low_pass(
             count,
             seed,
             args.get(4).and_then(|a| a.parse().ok()).unwrap_or(0.3),
             args.get(5).map(String::as_str),
         ),
-        _ => eprintln!("usage: diagnosis_power null|power|visible|low-pass COUNT [SEED] [PNG|-|CUTOFF] [FAMILY,…]"),
+        _ => eprintln!("usage: diagnosis_power null|power|visible|low-pass|wide COUNT [SEED] [PNG|-|CUTOFF|TIMES] [FAMILY,…]"),
     }
 }

@@ -322,7 +322,7 @@ pub trait EffectKind: Sync {
     }
     /// The range (lo, hi) the fitter searches shape parameter `index` over, for a τ grid from
     /// `tau_min` to `tau_max` seconds; `None` (the default): the fitter's rule for the unit
-    /// (`s`: τmin to 4·τmax; `Hz`: 1/(4·τmax) to Nyquist, 1/(2·τmin)).
+    /// (`s`: τmin to 4·τmax; `Hz`: two periods in the record, 2/(3·τmax), to Nyquist, 1/(2·τmin)).
     fn search_range(&self, index: usize, tau_min: f64, tau_max: f64) -> Option<(f64, f64)> {
         let _ = (index, tau_min, tau_max);
         None

@@ -20,7 +20,8 @@
 //! Conventions the fitter relies on (the effect files follow them): a spectral effect's σ²(τ) is
 //! proportional to the square of its *first* parameter (the amplitude); its other parameters are
 //! shape parameters, searched on a log scale over the range the τ grid can see (unit `s`: τmin
-//! to 4·τmax; unit `Hz`: the inverse) unless the kind gives its own ([`EffectKind::search_range`]).
+//! to 4·τmax; unit `Hz`: two periods in the record, 2/(3·τmax), to Nyquist) unless the kind gives
+//! its own ([`EffectKind::search_range`]).
 //!
 //! # References
 //! IEEE Std 952-1997, Annex C; Riley, NIST SP 1065 (2008), §5.2.4, Table 12; Lawson & Hanson (1974).

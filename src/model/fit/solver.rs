@@ -22,6 +22,14 @@ use crate::model::measure::{chi2_interval, edf_for_mix, NoiseClass};
 use crate::model::nnls::nnls;
 use nalgebra::{DMatrix, DVector};
 
+/// Fewest periods a line (a shape parameter in Hz without a range of its own) has in the record:
+/// its frequency is searched from LINE_PERIODS/(3·τmax), τmax being at most a third of the record.
+///
+/// Why: searched from 1/(4·τmax) (0.75–0.95 periods), a sinusoid of 0.85 periods drew its curve
+/// through a 24 σ ramp on a 90 min record and was named before it, its amplitude ± 100 %. Two
+/// periods are the fewest in which a sine is not a trend: over one, its arc is a drift's shape.
+pub(super) const LINE_PERIODS: f64 = 2.0;
+
 /// One spectral kind as the solver sees it.
 pub(super) struct Column {
     pub(super) kind: &'static dyn EffectKind,
@@ -76,8 +84,11 @@ impl<'a> Problem<'a> {
                     .map(|(i, s)| {
                         // A time constant shorter than the shortest τ is a filter, not a wandering
                         // bias: that regime belongs to the kinds that say so (`search_range`).
+                        // A frequency of fewer than two periods in the record (τmax is at most a
+                        // third of it) is a drift: over less than a cycle a sine's arc is a trend,
+                        // which a ramp, a random walk or temperature describes with its own evidence.
                         let (a, b) = kind.search_range(i, tau_min, tau_max).unwrap_or(match s.unit {
-                            "Hz" => (1.0 / (4.0 * tau_max), 1.0 / (2.0 * tau_min)),
+                            "Hz" => (LINE_PERIODS / (3.0 * tau_max), 1.0 / (2.0 * tau_min)),
                             _ => (tau_min, 4.0 * tau_max),
                         });
                         let a = a.max(s.bounds.0).max(f64::MIN_POSITIVE);

@@ -18,7 +18,8 @@
 //! anything but `bandwidth` (not when families are listed). Runs on two threads.
 //! `wide` is `visible` with the parameters drawn from wide continuous ranges
 //! (`power_common::wide_families`) over the rates and lengths of `power_common::WIDE_GRID`, at
-//! TIMES × the stated visibility (default 1).
+//! TIMES × the stated visibility (default 1; below 1, list the families without `bandwidth`,
+//! whose cut-off would then lie beyond twice the rate, which the simulator refuses).
 //! ```text
 //! cargo run --release --no-default-features --example diagnosis_power -- visible PER_POINT [SEED] [FAMILY,…]
 //! cargo run --release --no-default-features --example diagnosis_power -- low-pass PER_POINT [SEED] [CUTOFF] [FAMILY,…]

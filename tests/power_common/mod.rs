@@ -24,7 +24,7 @@ use fdavar::model::effects::{
 use fdavar::model::measure::NoiseClass;
 use fdavar::model::record::Recording;
 use fdavar::model::timedomain::{step_window, trend, NoiseSpectrum, Whitened};
-use fdavar::model::{diagnose, fit, FitOptions, ModelSpec};
+use fdavar::model::{diagnose, FitOptions, ModelSpec};
 use fdavar::signal::Axis;
 use fdavar::sim::LostMessages;
 use rand::{Rng, SeedableRng};
@@ -242,6 +242,11 @@ fn at_peak(s: &Setting, axis: Axis, strength: f64, build: impl Fn(f64) -> Box<dy
 fn sinusoid(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
     let axis = any_axis(rng);
     let f = [0.02, 0.1, 0.5, 2.0][rng.random_range(0..4)];
+    sinusoid_at(s, axis, strength, f)
+}
+
+/// A line at `f` whose AVAR peak is `strength` × the base AVAR.
+fn sinusoid_at(s: &Setting, axis: Axis, strength: f64, f: f64) -> Hidden {
     Hidden { axis, effect: at_peak(s, axis, strength, |a| Box::new(Sinusoid::new(a, f).unwrap())), motion: None, beside: None }
 }
 
@@ -269,6 +274,11 @@ fn vibration_at(s: &Setting, axis: Axis, strength: f64, f: f64, ratio: f64) -> H
 fn gauss_markov(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
     let axis = any_axis(rng);
     let t = [0.5_f64, 2.0, 10.0][rng.random_range(0..3)].min(s.seconds() / GM_CORRELATION_TIMES);
+    gauss_markov_at(s, axis, strength, t)
+}
+
+/// A Gauss–Markov process of time constant `t` whose AVAR peak is `strength` × the base AVAR.
+fn gauss_markov_at(s: &Setting, axis: Axis, strength: f64, t: f64) -> Hidden {
     Hidden { axis, effect: at_peak(s, axis, strength, |a| Box::new(GaussMarkov::new(a, t).unwrap())), motion: None, beside: None }
 }
 
@@ -361,13 +371,11 @@ pub fn wide_families() -> Vec<Family> {
     let wide: &[(&str, Maker)] = &[
         (id(&Sinusoid::new(1.0, 1.0).unwrap()), |s, strength, rng| {
             let axis = any_axis(rng);
-            let f = log_uniform(rng, 6.0 / s.seconds(), 0.4 * s.rate);
-            Hidden { axis, effect: at_peak(s, axis, strength, |a| Box::new(Sinusoid::new(a, f).unwrap())), motion: None, beside: None }
+            sinusoid_at(s, axis, strength, log_uniform(rng, 6.0 / s.seconds(), 0.4 * s.rate))
         }),
         (id(&GaussMarkov::new(1.0, 1.0).unwrap()), |s, strength, rng| {
             let axis = any_axis(rng);
-            let t = log_uniform(rng, 0.05, s.seconds() / GM_CORRELATION_TIMES);
-            Hidden { axis, effect: at_peak(s, axis, strength, |a| Box::new(GaussMarkov::new(a, t).unwrap())), motion: None, beside: None }
+            gauss_markov_at(s, axis, strength, log_uniform(rng, 0.05, s.seconds() / GM_CORRELATION_TIMES))
         }),
         (id(&Vibration::new(1.0, 1.0).unwrap()), |s, strength, rng| {
             let axis = any_axis(rng);
@@ -553,7 +561,9 @@ fn run_on(s: &Setting, hidden: &Hidden, loss: Option<LostMessages>, cutoff_per_r
     let d = diagnose(&rec.input(hidden.axis), &start, REGISTRY, &FitOptions::default()).unwrap();
     let kind = hidden.effect.kind();
     let filter_first = filters.first().zip(d.suggestions.first()).is_some_and(|((_, f), x)| x.effect == f.kind().id());
-    let named = if filter_first { d.suggestions.get(1).filter(|x| x.given.len() == 1) } else { d.suggestions.first() };
+    // The suggestion that names the hidden effect: the first, or the second beside the filter.
+    let at = usize::from(filter_first);
+    let named = d.suggestions.get(at).filter(|x| !filter_first || x.given.len() == 1);
     let detected = named.is_some_and(|x| x.effect == kind.id());
     let error = |truth: &fdavar::model::effects::Param, got: f64| match truth.spec.unit {
         "axis" => {
@@ -575,13 +585,12 @@ fn run_on(s: &Setting, hidden: &Hidden, loss: Option<LostMessages>, cutoff_per_r
         let got: Vec<f64> = sugg.params.iter().map(|p| p.value).collect();
         worst = match &hidden.beside {
             None => worst_of(&hidden.effect.params(), &got),
-            // Two lines are interchangeable: the model with the suggestion must hold both, each
-            // within tolerance, whichever of its two line terms took which.
+            // Two lines are interchangeable: the model with the suggestion (the diagnosis's own
+            // refit) must hold both, each within tolerance, whichever of its two line terms took
+            // which.
             Some(beside) => {
-                let both = ModelSpec::parse_in(&format!("{start},{}", kind.id()), REGISTRY).unwrap();
-                let refit = fit(&rec.input(hidden.axis), &both, REGISTRY, &FitOptions::default()).unwrap();
                 let other: Vec<f64> =
-                    refit.term(beside.kind().id()).map_or(vec![f64::NAN; 2], |t| t.params.iter().map(|p| p.value).collect());
+                    d.after[at].term(beside.kind().id()).map_or(vec![f64::NAN; 2], |t| t.params.iter().map(|p| p.value).collect());
                 let (mine, theirs) = (hidden.effect.params(), beside.params());
                 let as_named = worst_of(&mine, &got).max(worst_of(&theirs, &other));
                 let swapped = worst_of(&theirs, &got).max(worst_of(&mine, &other));

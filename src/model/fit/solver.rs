@@ -28,7 +28,7 @@ use nalgebra::{DMatrix, DVector};
 /// Why: searched from 1/(4·τmax) (0.75–0.95 periods), a sinusoid of 0.85 periods drew its curve
 /// through a 24 σ ramp on a 90 min record and was named before it, its amplitude ± 100 %. Two
 /// periods are the fewest in which a sine is not a trend: over one, its arc is a drift's shape.
-pub(super) const LINE_PERIODS: f64 = 2.0;
+const LINE_PERIODS: f64 = 2.0;
 
 /// One spectral kind as the solver sees it.
 pub(super) struct Column {

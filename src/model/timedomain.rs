@@ -747,7 +747,21 @@ const TREND_BLOCKS: usize = 128;
 /// Riley W. J., NIST SP 1065 (2008), Table 6; Kariya T. & Kurata H., Generalized Least Squares,
 /// Wiley 2004, §2 (GLS, and the invariance under a random intercept).
 pub fn trend(y: &[f64], noise: &NoiseSpectrum) -> Option<Regression> {
-    block_regression(y, None, noise)
+    block_gls(y, Regressor::Time, noise)
+}
+
+/// GLS size of a step in the rate at sample `at` (the same block means and covariance as
+/// [`trend`]; the regressor of a block is the share of its finite samples at or after `at`).
+/// `None` as [`trend`].
+///
+/// Why not the scan's two-window contrast: it reads 2W samples of the record and weighs them
+/// alike; GLS reads every block, weighed by the noise between them. Under white noise the
+/// contrast's variance is 2σ²/W against σ²(1/n₁ + 1/n₂) for GLS, and under a random walk both
+/// come down to the blocks next to the step. Measured on steps at 12 σ of the scan's test
+/// (`diagnosis_power -- power 100 13 - bias_step`): the size within 10 % on 62 of 97 detected
+/// with the contrast (of `find_step`), on 74 by GLS; the step's time is the scan's in both.
+pub fn step_size(y: &[f64], at: usize, noise: &NoiseSpectrum) -> Option<Regression> {
+    block_gls(y, Regressor::StepAt(at), noise)
 }
 
 /// [`trend`] with the block means of a driver `x` (one value per rate sample; a block is used
@@ -757,7 +771,23 @@ pub fn trend(y: &[f64], noise: &NoiseSpectrum) -> Option<Regression> {
 /// Why: a slow driver (a warm-up) and a line in time are told apart by which of the two
 /// explains the block means better, each fitted the same way against the same noise.
 pub fn block_regression(y: &[f64], x: Option<&[f64]>, noise: &NoiseSpectrum) -> Option<Regression> {
-    if x.is_some_and(|x| x.len() != y.len()) {
+    block_gls(y, x.map_or(Regressor::Time, Regressor::Driver), noise)
+}
+
+/// What the block means of [`block_gls`] are regressed on.
+#[derive(Clone, Copy)]
+enum Regressor<'a> {
+    /// The block's centre time (a trend).
+    Time,
+    /// The block mean of a driver, one value per rate sample.
+    Driver(&'a [f64]),
+    /// The share of the block's finite samples at or after a sample (a step there).
+    StepAt(usize),
+}
+
+/// The GLS coefficient of the rate's block means on `regressor` ([`trend`]'s formula).
+fn block_gls(y: &[f64], regressor: Regressor<'_>, noise: &NoiseSpectrum) -> Option<Regression> {
+    if matches!(regressor, Regressor::Driver(x) if x.len() != y.len()) {
         return None;
     }
     let m = TREND_BLOCKS.min(y.len() / 8);
@@ -778,11 +808,17 @@ pub fn block_regression(y: &[f64], x: Option<&[f64]>, noise: &NoiseSpectrum) -> 
     let blocks: Vec<(usize, f64, f64)> = (0..m)
         .filter_map(|j| {
             let start = skip + j * b;
-            let regressor = match x {
-                None => (start as f64 + 0.5 * (b as f64 - 1.0)) * tau0,
-                Some(x) => block_mean(&x[start..start + b])?,
+            let block = &y[start..start + b];
+            let regressor = match regressor {
+                Regressor::Time => (start as f64 + 0.5 * (b as f64 - 1.0)) * tau0,
+                Regressor::Driver(x) => block_mean(&x[start..start + b])?,
+                Regressor::StepAt(at) => {
+                    let after = &block[at.clamp(start, start + b) - start..];
+                    let finite = |v: &[f64]| v.iter().filter(|v| v.is_finite()).count() as f64;
+                    finite(after) / finite(block)
+                }
             };
-            Some((j, regressor, block_mean(&y[start..start + b])?))
+            Some((j, regressor, block_mean(block)?))
         })
         .collect();
     let k = blocks.len();
@@ -1705,6 +1741,28 @@ mod tests {
         let s = step_scan(&y, &spectrum).unwrap();
         assert!(s.p_value < 1e-6 && (s.index as i64 - 25_000).abs() < s.window as i64 / 2, "{s:?}");
         assert!((s.size - size).abs() < 2.0 * s.sigma, "{s:?}");
+    }
+
+    #[test]
+    fn a_step_size_by_gls_is_calibrated_and_closer_than_the_contrast() {
+        // White noise and a random walk, a step of 8 σ of the scan's test at 40 % of the record,
+        // 40 seeds: the GLS size's z must be standard normal (mean z² 1; sd of the mean of 40
+        // χ²₁ values 0.22), and its squared error below the scan's contrast's.
+        let (tau0, n, at) = (0.01, 60_000, 24_000);
+        let (mut z2, mut gls_err, mut contrast_err) = (0.0, 0.0, 0.0);
+        let seeds = 40;
+        for seed in 0..seeds {
+            let (mut y, spectrum) = coloured(n, 100 + seed, tau0);
+            let size = 8.0 * step_scan(&y, &spectrum).unwrap().sigma;
+            y.iter_mut().skip(at).for_each(|v| *v += size);
+            let (_, contrast, _) = find_step(&y);
+            let g = step_size(&y, at, &spectrum).unwrap();
+            z2 += ((g.coefficient - size) / g.sigma).powi(2) / seeds as f64;
+            gls_err += ((g.coefficient - size) / size).powi(2);
+            contrast_err += ((contrast - size) / size).powi(2);
+        }
+        assert!((0.5..1.7).contains(&z2), "mean z² {z2}");
+        assert!(gls_err < 0.7 * contrast_err, "GLS {gls_err}, contrast {contrast_err}");
     }
 
     #[test]

@@ -6,7 +6,7 @@ use super::{
     WithEstimator,
 };
 use crate::model::fit::{AxisInput, FitError};
-use crate::model::timedomain::{find_step, Estimate, NoiseSpectrum, Signature};
+use crate::model::timedomain::{find_step, step_size, Estimate, NoiseSpectrum, Signature};
 use rand::RngCore;
 
 static SCHEMA: &[ParamSpec] = &[
@@ -67,10 +67,14 @@ impl TimeEstimator for StepSearch {
         &self,
         input: &AxisInput<'_>,
         series: &[f64],
-        _noise: Option<&NoiseSpectrum>,
+        noise: Option<&NoiseSpectrum>,
     ) -> Result<Estimate, FitError> {
         let (i, size, strength) = find_step(series);
-        Ok(Estimate::event(vec![i as f64 * input.tau0, size], strength, Signature::MeanStep))
+        // With the base noise known, the size again by GLS on the whole record at that time.
+        let gls = noise.and_then(|noise| step_size(series, i, noise));
+        let mut est = Estimate::event(vec![i as f64 * input.tau0, gls.map_or(size, |g| g.coefficient)], strength, Signature::MeanStep);
+        est.sigmas[1] = gls.map(|g| g.sigma);
+        Ok(est)
     }
     fn remove(&self, values: &[f64], input: &AxisInput<'_>, series: &mut [f64]) {
         let start = (values[0] / input.tau0).round() as usize;

@@ -178,10 +178,12 @@ pub fn prepare(
         timedomain::remove(kind, &est, input, series.to_mut());
         estimates.push(est);
     }
-    // A regression (on a driver or on time) is estimated again by GLS against the noise of the
-    // rest: the first, ordinary least-squares guess weighs a wandering record's random walk as
-    // heavily as the signal (see `timedomain::trend`, `Whitened`).
-    let regression = |e: &timedomain::Estimate| matches!(e.signature, Signature::Driven | Signature::Trend);
+    // A regression (on a driver or on time) and a step's size are estimated again by GLS against
+    // the noise of the rest: the first guess (ordinary least squares, a two-window contrast)
+    // weighs a wandering record's random walk as heavily as the signal (see `timedomain::trend`,
+    // `timedomain::step_size`, `Whitened`).
+    let regression =
+        |e: &timedomain::Estimate| matches!(e.signature, Signature::Driven | Signature::Trend | Signature::MeanStep);
     if estimates.iter().any(regression) {
         if let Some(noise) = noise_of(&series, input.tau0, &spectral_kinds, opts) {
             series = std::borrow::Cow::Borrowed(input.rate);

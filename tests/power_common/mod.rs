@@ -201,6 +201,13 @@ pub struct Hidden {
     pub beside: Option<Box<dyn Effect>>,
 }
 
+impl Hidden {
+    /// `effect` alone on `axis`: no motion, nothing beside it.
+    pub fn alone(axis: Axis, effect: Box<dyn Effect>) -> Hidden {
+        Hidden { axis, effect, motion: None, beside: None }
+    }
+}
+
 /// One effect family of the power curves: a name (the effect's id), how its strength is counted,
 /// and how to hide it at a strength in a setting.
 pub struct Family {
@@ -247,7 +254,7 @@ fn sinusoid(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
 
 /// A line at `f` whose AVAR peak is `strength` × the base AVAR.
 fn sinusoid_at(s: &Setting, axis: Axis, strength: f64, f: f64) -> Hidden {
-    Hidden { axis, effect: at_peak(s, axis, strength, |a| Box::new(Sinusoid::new(a, f).unwrap())), motion: None, beside: None }
+    Hidden::alone(axis, at_peak(s, axis, strength, |a| Box::new(Sinusoid::new(a, f).unwrap())))
 }
 
 /// A second line (`vibration`) at `strength` beside a first, 32× the base AVAR at its peak, which
@@ -279,7 +286,7 @@ fn gauss_markov(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
 
 /// A Gauss–Markov process of time constant `t` whose AVAR peak is `strength` × the base AVAR.
 fn gauss_markov_at(s: &Setting, axis: Axis, strength: f64, t: f64) -> Hidden {
-    Hidden { axis, effect: at_peak(s, axis, strength, |a| Box::new(GaussMarkov::new(a, t).unwrap())), motion: None, beside: None }
+    Hidden::alone(axis, at_peak(s, axis, strength, |a| Box::new(GaussMarkov::new(a, t).unwrap())))
 }
 
 /// The least record length, in correlation times, of the `gauss_markov` family.
@@ -308,7 +315,7 @@ fn bandwidth(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
             hi = mid;
         }
     }
-    Hidden { axis, effect: Box::new(effect(hi.exp())), motion: None, beside: None }
+    Hidden::alone(axis, Box::new(effect(hi.exp())))
 }
 
 /// Peak of (N²/τ − σ²_bandwidth(τ))/σ²_base(τ) over τ ∈ [τ0, T/3], ten τ per decade: how far
@@ -328,12 +335,12 @@ fn ramp(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
     let sign = random_sign(rng);
     let zeros = vec![0.0; s.samples()];
     let sigma = trend(&zeros, &base_noise(s, axis)).map_or(f64::NAN, |r| r.sigma);
-    Hidden { axis, effect: Box::new(Ramp::new(sign * strength * sigma).unwrap()), motion: None, beside: None }
+    Hidden::alone(axis, Box::new(Ramp::new(sign * strength * sigma).unwrap()))
 }
 
 fn quantization(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
     let axis = any_axis(rng);
-    Hidden { axis, effect: at_peak(s, axis, strength, |a| Box::new(Quantization::new(a).unwrap())), motion: None, beside: None }
+    Hidden::alone(axis, at_peak(s, axis, strength, |a| Box::new(Quantization::new(a).unwrap())))
 }
 
 fn bias_step(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
@@ -418,7 +425,7 @@ pub fn bias_step_at(s: &Setting, axis: Axis, strength: f64, fraction: f64) -> Hi
     let w = step_window(s.samples(), &base);
     let sigma = (2.0 * base.avar(w as f64 / s.rate)).sqrt();
     let step = BiasStep::new(fraction * s.seconds(), strength * sigma).unwrap();
-    Hidden { axis, effect: Box::new(step), motion: None, beside: None }
+    Hidden::alone(axis, Box::new(step))
 }
 
 fn noise_burst(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
@@ -444,7 +451,7 @@ fn noise_burst_at(s: &Setting, axis: Axis, strength: f64, phi: f64, start: f64) 
     }
     let start = s.seconds() * start;
     let end = start + phi * s.seconds();
-    Hidden { axis, effect: Box::new(NoiseBurst::new(start, end, hi).unwrap()), motion: None, beside: None }
+    Hidden::alone(axis, Box::new(NoiseBurst::new(start, end, hi).unwrap()))
 }
 
 /// The GLS σ of a regression on `x` under `base`, as the diagnosis computes it.
@@ -460,7 +467,7 @@ fn temperature(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {
     let x: Vec<f64> = (0..s.samples()).map(|i| profile.at(i as f64 / s.rate)).collect();
     let sigma = regression_sigma(&x, &base_noise(s, axis));
     let sign = random_sign(rng);
-    Hidden { axis, effect: Box::new(Temperature::new(sign * strength * sigma).unwrap()), motion: None, beside: None }
+    Hidden::alone(axis, Box::new(Temperature::new(sign * strength * sigma).unwrap()))
 }
 
 fn g_sensitivity(s: &Setting, strength: f64, rng: &mut ChaCha8Rng) -> Hidden {

@@ -798,27 +798,24 @@ fn block_gls(y: &[f64], regressor: Regressor<'_>, noise: &NoiseSpectrum) -> Opti
     let skip = y.len() - m * b;
     let tau0 = noise.tau0;
     let tb = b as f64 * tau0;
+    let finite = |v: &[f64]| v.iter().filter(|v| v.is_finite()).count();
     // The mean of a block at least half finite (else the block is left out).
-    let block_mean = |v: &[f64]| {
-        let finite = v.iter().filter(|v| v.is_finite()).count();
-        (2 * finite >= v.len()).then(|| finite_mean(v))
-    };
-    // (block index, regressor: centre time or driver mean, rate mean) of the blocks at least
-    // half finite.
+    let block_mean = |v: &[f64]| (2 * finite(v) >= v.len()).then(|| finite_mean(v));
+    // (block index, regressor: centre time, driver mean or the step's share, rate mean) of the
+    // blocks at least half finite.
     let blocks: Vec<(usize, f64, f64)> = (0..m)
         .filter_map(|j| {
             let start = skip + j * b;
             let block = &y[start..start + b];
+            let mean = block_mean(block)?;
             let regressor = match regressor {
                 Regressor::Time => (start as f64 + 0.5 * (b as f64 - 1.0)) * tau0,
                 Regressor::Driver(x) => block_mean(&x[start..start + b])?,
                 Regressor::StepAt(at) => {
-                    let after = &block[at.clamp(start, start + b) - start..];
-                    let finite = |v: &[f64]| v.iter().filter(|v| v.is_finite()).count() as f64;
-                    finite(after) / finite(block)
+                    finite(&block[at.clamp(start, start + b) - start..]) as f64 / finite(block) as f64
                 }
             };
-            Some((j, regressor, block_mean(block)?))
+            Some((j, regressor, mean))
         })
         .collect();
     let k = blocks.len();

@@ -182,13 +182,13 @@ pub fn prepare(
     // the noise of the rest: the first guess (ordinary least squares, a two-window contrast)
     // weighs a wandering record's random walk as heavily as the signal (see `timedomain::trend`,
     // `timedomain::step_size`, `Whitened`).
-    let regression =
+    let by_gls =
         |e: &timedomain::Estimate| matches!(e.signature, Signature::Driven | Signature::Trend | Signature::MeanStep);
-    if estimates.iter().any(regression) {
+    if estimates.iter().any(by_gls) {
         if let Some(noise) = noise_of(&series, input.tau0, &spectral_kinds, opts) {
             series = std::borrow::Cow::Borrowed(input.rate);
             for (&kind, est) in order.iter().zip(estimates.iter_mut()) {
-                if regression(est) {
+                if by_gls(est) {
                     if let Ok(gls) = timedomain::estimate(kind, input, &series, Some(&noise)) {
                         *est = gls;
                     }

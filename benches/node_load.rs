@@ -1,10 +1,11 @@
 //! Benchmark of `fdavar_node` under a 2 kHz IMU: its CPU share and its receive-to-update latency.
 //!
 //! ```text
-//! cargo bench --bench node_load -- [RATE_HZ] [SECONDS] [DIAGNOSIS_PERIOD_S] [SINUSOID] [CPU_SHARE]
+//! cargo bench --bench node_load -- [RATE_HZ] [SECONDS] [DIAGNOSIS_PERIOD_S] [SINUSOID] [CPU_SHARE] [BATCH_MS]
 //! ```
 //! (defaults 2000 Hz, 20 s, the node's default diagnosis period, 10 s (0 turns it off), no
-//! sinusoid, and the node's default `diagnosis_cpu_share`, 0.01; SINUSOID = a peak amplitude in
+//! sinusoid, the node's default `diagnosis_cpu_share`, 0.005, and its default
+//! `receive_batch_ms`, 0.8 (0: woken by DDS for every message); SINUSOID = a peak amplitude in
 //! rad/s adds a 2 Hz sinusoid to gyro_x, so that its model fails and each diagnosis of that axis
 //! refits every candidate effect: the costly case; a period of 1 s with CPU_SHARE 1 runs the rounds
 //! back to back, so that the latency window always holds diagnoses).
@@ -76,8 +77,10 @@ fn main() {
     let diagnosis_s: f64 = args.get(2).and_then(|a| a.parse().ok()).unwrap_or(10.0);
     let diagnosis = format!("diagnosis_period_s:={diagnosis_s:?}");
     let sinusoid: f64 = args.get(3).and_then(|a| a.parse().ok()).unwrap_or(0.0);
-    let share: f64 = args.get(4).and_then(|a| a.parse().ok()).unwrap_or(0.01);
+    let share: f64 = args.get(4).and_then(|a| a.parse().ok()).unwrap_or(0.005);
     let share_param = format!("diagnosis_cpu_share:={share:?}");
+    let batch_ms: f64 = args.get(5).and_then(|a| a.parse().ok()).unwrap_or(0.8);
+    let batch_param = format!("receive_batch_ms:={batch_ms:?}");
 
     // FDAVAR_NODE runs another build (e.g. a copy of the previous one, for interleaved A/B runs).
     let binary =
@@ -91,6 +94,8 @@ fn main() {
             &diagnosis,
             "-p",
             &share_param,
+            "-p",
+            &batch_param,
             // The bench reads /diagnostics 1.5 s after its last message: not stale yet.
             "-p",
             "stale_timeout_s:=5.0",
@@ -187,7 +192,7 @@ fn main() {
     println!(
         "fdavar_node at {rate_hz} Hz for {wall:.1} s: sent {n}, counted {} samples, {} drops; \
          CPU {:.1} % of one core; receive-to-update latency p50 {} ms, p99 {} ms; diagnosis \
-         every {diagnosis_s} s (CPU share {share}, gyro_x sinusoid {sinusoid} rad/s), last one on gyro_x {} ms, \
+         every {diagnosis_s} s (CPU share {share}, batches of {batch_ms} ms, gyro_x sinusoid {sinusoid} rad/s), last one on gyro_x {} ms, \
          suggestions [{}]",
         get("samples"),
         get("drops"),

@@ -556,8 +556,15 @@ pub fn run(
         },
     ));
 
+    let batching = Batching {
+        period: Duration::from_secs_f64(config.double("receive_batch_ms") * 1e-3),
+        // A quarter of the reader's history: a batch that large means messages come faster
+        // than the period allows, and waiting the period out could overflow the history.
+        full: depth.div_ceil(4),
+    };
     receive_loop(
         &imu_sub,
+        &batching,
         temp_sub.as_ref(),
         clock_sub.as_ref(),
         sim_time.as_deref(),
@@ -668,8 +675,22 @@ fn take_ready<M>(
     true
 }
 
+/// How the receive loop waits for IMU messages once they come (`receive_batch_ms`).
+struct Batching {
+    /// The wait between two takes while messages come; zero: woken by DDS for each.
+    period: Duration,
+    /// A take of this many messages or more is followed at once by the next.
+    full: usize,
+}
+
 /// Takes messages off DDS and analyses or queues them ([`Shared::hand_over`]); never blocks on the
 /// analysis.
+///
+/// Why batches on a timer while messages come ([`Batching`]): DDS's wake-up of this thread for
+/// each message, and this thread's sleep after it, were most of the node's CPU at 2 kHz (README,
+/// "Node at 2 kHz"). While batching, the IMU stream is polled with a no-op waker, so that DDS
+/// wakes nobody; a take that finds nothing polls once more with the thread's own waker and parks
+/// until DDS wakes it, so a slow or silent topic costs no timer wake-ups.
 ///
 /// Why the subscriptions' async streams, polled by hand on this thread, rather than a mio `Poll`
 /// (as before): a stream leaves a waker that DDS calls once per message (one thread unpark),
@@ -680,6 +701,7 @@ fn take_ready<M>(
 #[allow(clippy::too_many_arguments)]
 fn receive_loop(
     imu: &Subscription<Imu>,
+    batching: &Batching,
     temperature: Option<&Subscription<Temperature>>,
     clock_sub: Option<&Subscription<Clock>>,
     sim_time: Option<&AtomicI64>,
@@ -696,6 +718,8 @@ fn receive_loop(
     let mut temperature_stream = std::pin::pin!(temperature.map(Subscription::async_stream));
     let mut clock_stream = std::pin::pin!(clock_sub.map(Subscription::async_stream));
     let mut read_errors_logged = false;
+    let mut batch_cx = TaskContext::from_waker(std::task::Waker::noop());
+    let mut batching_now = false;
     while !stop.load(Ordering::Relaxed) {
         if let (Some(s), Some(t)) = (clock_stream.as_mut().as_pin_mut(), sim_time) {
             take_ready(s, &mut cx, |read| {
@@ -705,8 +729,11 @@ fn receive_loop(
                 true
             });
         }
-        let open = take_ready(imu_stream.as_mut(), &mut cx, |read| match read {
+        let mut taken = 0_usize;
+        let imu_cx = if batching_now { &mut batch_cx } else { &mut cx };
+        let open = take_ready(imu_stream.as_mut(), imu_cx, |read| match read {
             Ok((msg, info)) => {
+                taken += 1;
                 let input = Input::Imu {
                     // A zero stamp stays zero here: the monitor decides (by the stream's
                     // clock) what it means.
@@ -756,6 +783,18 @@ fn receive_loop(
             if !open {
                 return;
             }
+        }
+        if taken > 0 && !batching.period.is_zero() {
+            batching_now = true;
+            if taken < batching.full {
+                std::thread::sleep(batching.period);
+            }
+            continue;
+        }
+        if batching_now {
+            // Nothing came during the wait: take once more with the waker set, then park.
+            batching_now = false;
+            continue;
         }
         // Until the next message of any subscription (whose wake may have come already: then
         // this returns at once), or in time to see `stop`.

@@ -131,6 +131,17 @@ pub static NODE_PARAMS: &[ParamSpec] = &[
         live: false,
     },
     ParamSpec {
+        name: "receive_batch_ms",
+        doc: "Once IMU messages come, take them off DDS every this many ms, on a timer, instead of \
+              being woken by DDS for each one (at kHz rates the per-message wake-up was most of \
+              the node's CPU); a message then waits at most about this long before its update. \
+              After a wait that found none, the node waits for DDS's wake-up again. 0 = wake \
+              for every message. [0, 10].",
+        default: || ParameterValue::Double(0.8),
+        validate: |v| non_negative_double(v, 10.0),
+        live: false,
+    },
+    ParamSpec {
         name: "qos.reliable",
         doc: "Subscribe `imu` reliable (matches only reliable publishers); default best effort.",
         default: || ParameterValue::Boolean(false),
@@ -182,11 +193,11 @@ pub static NODE_PARAMS: &[ParamSpec] = &[
     },
     ParamSpec {
         name: "diagnosis_cpu_share",
-        doc: "Largest share of one core the whole-run diagnosis may take: a round of six axes \
-              that took C seconds starts the next no sooner than C/share seconds after its own \
-              start (a diagnosis costs in proportion to the record: about 0.7 s per axis once it \
-              holds 2^21 values). 1 = only diagnosis_period_s paces the rounds. (0, 1].",
-        default: || ParameterValue::Double(0.01),
+        doc: "Largest share of one core the whole-run diagnosis may take: the diagnosis of an \
+              axis that took C seconds starts the next no sooner than C/share seconds after its \
+              own start (a diagnosis costs in proportion to the record: about 0.7 s per axis once \
+              it holds 2^21 values). 1 = only diagnosis_period_s paces the rounds. (0, 1].",
+        default: || ParameterValue::Double(0.005),
         validate: |v| positive_double(v, 1.0),
         live: true,
     },

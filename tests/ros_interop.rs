@@ -1718,10 +1718,11 @@ fn voluntary_switches(pid: u32) -> u64 {
 
 /// `receive_batch_ms` (default 0.8): at 2 kHz the receive thread (the node's main thread) takes
 /// messages in batches on a timer, about 1 wake-up per 0.8 ms instead of one per message; once the
-/// topic falls silent it parks until DDS wakes it, so silence costs no timer wake-ups. Needs no
-/// Python: the IMU publisher is ros2-client in this process, best effort as IMU drivers are.
+/// topic falls silent it parks until DDS wakes it, so silence costs no timer wake-ups; a 100 Hz
+/// topic is taken as DDS wakes the thread, once per message, not twice. Needs no Python: the IMU
+/// publisher is ros2-client in this process, best effort as IMU drivers are.
 #[test]
-fn the_node_takes_a_fast_topic_in_batches_and_parks_when_it_falls_silent() {
+fn the_node_takes_a_fast_topic_in_batches_a_slow_one_per_message_and_parks_when_silent() {
     use fdavar::msgs::sensor_msgs::Imu;
     use fdavar::ros::node::publish_on;
     use ros2_client::{Context, ContextOptions, NodeName, NodeOptions, QosProfile};
@@ -1770,9 +1771,9 @@ fn the_node_takes_a_fast_topic_in_batches_and_parks_when_it_falls_silent() {
     publish(sent, 2000.0);
     std::thread::sleep(Duration::from_millis(100));
     let during = voluntary_switches(pid) - before;
-    // Woken per message, the thread switched about once per message; in 0.8 ms batches about
-    // 0.55 times (measured 0.53 with `perf stat` at 2 kHz). A slow publisher only makes the
-    // batches larger.
+    // Woken per message, the thread switched about 1.5 times per message (measured 5 972 for
+    // 4 000 with `receive_batch_ms:=0`); in 0.8 ms batches about 0.55 times (measured 2 135–2 270).
+    // A slow publisher only makes the batches larger.
     eprintln!("{during} voluntary switches of the receive thread for {sent} messages at 2 kHz");
     assert!(
         during * 4 < sent * 3,
@@ -1784,5 +1785,14 @@ fn the_node_takes_a_fast_topic_in_batches_and_parks_when_it_falls_silent() {
     let silent = voluntary_switches(pid) - silent_from;
     eprintln!("{silent} voluntary switches of the receive thread in 2 s of silence");
     assert!(silent < 60, "{silent} wake-ups in 2 s without a message: still on a timer");
+    // 100 Hz for 2 s: woken by DDS per message, about 1.25 switches each (measured 269 for 200,
+    // with the parked thread's 100 ms checks; woken per message at 2 kHz: 1.5 each, the waker's
+    // mutex, docs/ros.md); a timed take after each, which would find nothing, adds one per
+    // message (measured 434 with a build that batched every topic).
+    let slow_from = voluntary_switches(pid);
+    publish(200, 100.0);
+    let slow = voluntary_switches(pid) - slow_from;
+    eprintln!("{slow} voluntary switches of the receive thread for 200 messages at 100 Hz");
+    assert!(slow < 370, "{slow} wake-ups for 200 messages at 100 Hz: batched as a fast topic");
     drop(node);
 }

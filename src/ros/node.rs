@@ -675,9 +675,10 @@ fn take_ready<M>(
     true
 }
 
-/// How the receive loop waits for IMU messages once they come (`receive_batch_ms`).
+/// How the receive loop waits for IMU messages that come faster than one per `period`
+/// (`receive_batch_ms`).
 struct Batching {
-    /// The wait between two takes while messages come; zero: woken by DDS for each.
+    /// The wait between two takes while messages come that fast; zero: woken by DDS for each.
     period: Duration,
     /// A take of this many messages or more is followed at once by the next.
     full: usize,
@@ -686,11 +687,13 @@ struct Batching {
 /// Takes messages off DDS and analyses or queues them ([`Shared::hand_over`]); never blocks on the
 /// analysis.
 ///
-/// Why batches on a timer while messages come ([`Batching`]): DDS's wake-up of this thread for
-/// each message, and this thread's sleep after it, were most of the node's CPU at 2 kHz (README,
-/// "Node at 2 kHz"). While batching, the IMU stream is polled with a no-op waker, so that DDS
-/// wakes nobody; a take that finds nothing polls once more with the thread's own waker and parks
-/// until DDS wakes it, so a slow or silent topic costs no timer wake-ups.
+/// Why batches on a timer while messages come faster than one per period ([`Batching`]): DDS's
+/// wake-up of this thread for each message, and this thread's sleep after it, were most of the
+/// node's CPU at 2 kHz (README, "Node at 2 kHz"). While batching, the IMU stream is polled with a
+/// no-op waker, so that DDS wakes nobody; a take that finds nothing polls once more with the
+/// thread's own waker and parks until DDS wakes it. Slower topics (the last two messages
+/// further apart than a period, by RustDDS's reception stamps) are taken as DDS wakes the thread
+/// for each: a timed take after each of them would find nothing and double the wake-ups.
 ///
 /// Why the subscriptions' async streams, polled by hand on this thread, rather than a mio `Poll`
 /// (as before): a stream leaves a waker that DDS calls once per message (one thread unpark),
@@ -720,6 +723,9 @@ fn receive_loop(
     let mut read_errors_logged = false;
     let mut batch_cx = TaskContext::from_waker(std::task::Waker::noop());
     let mut batching_now = false;
+    let period_ns = batching.period.as_nanos() as i64;
+    // RustDDS's reception stamp of the latest IMU message, and its distance from the one before.
+    let (mut last_arrival_ns, mut last_gap_ns) = (None::<i64>, i64::MAX);
     while !stop.load(Ordering::Relaxed) {
         if let (Some(s), Some(t)) = (clock_stream.as_mut().as_pin_mut(), sim_time) {
             take_ready(s, &mut cx, |read| {
@@ -734,15 +740,16 @@ fn receive_loop(
         let open = take_ready(imu_stream.as_mut(), imu_cx, |read| match read {
             Ok((msg, info)) => {
                 taken += 1;
+                let arrived_ns = info.received_timestamp().map_or_else(wall_ns, |t| t.to_nanos());
+                last_gap_ns = last_arrival_ns.map_or(i64::MAX, |t| arrived_ns.saturating_sub(t));
+                last_arrival_ns = Some(arrived_ns);
                 let input = Input::Imu {
                     // A zero stamp stays zero here: the monitor decides (by the stream's
                     // clock) what it means.
                     sample: msg.to_sample(0),
                     frame_id: msg.header.frame_id,
                     receive_ns: clock.now_ns(),
-                    arrived_ns: info
-                        .received_timestamp()
-                        .map_or_else(wall_ns, |t| t.to_nanos()),
+                    arrived_ns,
                 };
                 match shared.hand_over(input, tx) {
                     HandOver::Done => true,
@@ -784,7 +791,8 @@ fn receive_loop(
                 return;
             }
         }
-        if taken > 0 && !batching.period.is_zero() {
+        // (A negative gap is the wall clock stepping back: no evidence of a fast topic.)
+        if taken > 0 && (0..period_ns).contains(&last_gap_ns) {
             batching_now = true;
             if taken < batching.full {
                 std::thread::sleep(batching.period);

@@ -800,7 +800,8 @@ fn receive_loop(
             continue;
         }
         if batching_now {
-            // Nothing came during the wait: take once more with the waker set, then park.
+            // Nothing came during the wait, or the topic slowed below one message per period:
+            // take once more with the waker set, then park until DDS wakes the thread.
             batching_now = false;
             continue;
         }

@@ -23,7 +23,7 @@
 //! Why the receive loop analyses when it can: handing every message to the analysis thread woke
 //! a second thread per message (a futex wake and a context switch on each side); the F-DAVAR
 //! update of six axes costs less than that hand-off. The queue stays for the times the analysis
-//! is busy (docs/ros.md, "Node at 2 kHz" in README has the measured gain).
+//! is busy (docs/ros.md; "Node at 2 kHz" in docs/performance.md has the measured gain).
 
 use super::args::RosArgs;
 use super::dump::DumpWriter;
@@ -689,7 +689,7 @@ struct Batching {
 ///
 /// Why batches on a timer while messages come faster than one per period ([`Batching`]): DDS's
 /// wake-up of this thread for each message, and this thread's sleep after it, were most of the
-/// node's CPU at 2 kHz (README, "Node at 2 kHz"). While batching, the IMU stream is polled with a
+/// node's CPU at 2 kHz (docs/performance.md, "Node at 2 kHz"). While batching, the IMU stream is polled with a
 /// no-op waker, so that DDS wakes nobody; a take that finds nothing polls once more with the
 /// thread's own waker and parks until DDS wakes it. Slower topics (the last two messages
 /// further apart than a period, by RustDDS's reception stamps) are taken as DDS wakes the thread
@@ -699,7 +699,7 @@ struct Batching {
 /// (as before): a stream leaves a waker that DDS calls once per message (one thread unpark),
 /// where the mio source is a socket pair that cost an `epoll_wait` and two or three `recv` calls
 /// per message (each `Subscription::take` drains it): up to a fifth of the node's samples in a
-/// `perf record` at 2 kHz (README, node rows, has the measured gain). Nobody reads the socket
+/// `perf record` at 2 kHz (docs/performance.md, node rows, has the measured gain). Nobody reads the socket
 /// pair now: once full, DDS's writes to it fail at once.
 #[allow(clippy::too_many_arguments)]
 fn receive_loop(

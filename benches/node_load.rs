@@ -28,10 +28,10 @@
 
 use fdavar::msgs::diagnostic_msgs::DiagnosticArray;
 use fdavar::msgs::sensor_msgs::Imu;
-use fdavar::ros::node::{publish_on, subscribe_on};
+use fdavar::ros::node::{peer_node, publish_on, spin_in_background, subscribe_on, wait_for_subscriber};
 use fdavar::signal::ImuSample;
 use ros2_client::qos::History;
-use ros2_client::{Context, ContextOptions, NodeName, NodeOptions, QosProfile};
+use ros2_client::QosProfile;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -108,29 +108,17 @@ fn main() {
         .expect("start fdavar_node");
     let pid = child.id();
 
-    let context = Context::with_options(ContextOptions::new().domain_id(DOMAIN)).expect("context");
-    let mut node = context
-        .new_node(
-            NodeName::new("/", "fdavar_bench").unwrap(),
-            NodeOptions::new().enable_rosout(false),
-        )
-        .expect("node");
+    let mut node = peer_node(DOMAIN, "fdavar_bench").expect("node");
     let imu_qos = QosProfile::subscription_default().history(History::KeepLast { depth: 100 });
     let imu = publish_on::<Imu>(&mut node, "/imu", &imu_qos).expect("imu publisher");
     let diag_qos = QosProfile::publisher_default().history(History::KeepLast { depth: 10 });
     let diagnostics = subscribe_on::<DiagnosticArray>(&mut node, "/diagnostics", &diag_qos)
         .expect("subscription");
-    let spinner = node.spinner().expect("spinner");
-    std::thread::spawn(move || futures::executor::block_on(spinner.spin()));
-
-    let matched_by = Instant::now() + Duration::from_secs(30);
-    while imu.get_subscription_count(&node) == 0 {
-        assert!(
-            Instant::now() < matched_by,
-            "fdavar_node never matched the IMU publisher"
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    spin_in_background(&mut node).expect("spinner");
+    assert!(
+        wait_for_subscriber(&imu, &node, Duration::from_secs(30)),
+        "fdavar_node never matched the IMU publisher"
+    );
     std::thread::sleep(Duration::from_millis(500));
 
     let period = Duration::from_secs_f64(1.0 / rate_hz);

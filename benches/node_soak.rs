@@ -46,9 +46,9 @@
 use fdavar::msgs::builtin_interfaces::Time;
 use fdavar::msgs::diagnostic_msgs::DiagnosticArray;
 use fdavar::msgs::rosgraph_msgs::Clock;
-use fdavar::ros::node::{publish_on, subscribe_on};
+use fdavar::ros::node::{peer_node, publish_on, spin_in_background, subscribe_on};
 use ros2_client::qos::{History, WhenFull};
-use ros2_client::{Context, ContextOptions, NodeName, NodeOptions, QosProfile};
+use ros2_client::QosProfile;
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -359,13 +359,7 @@ fn dds(hours: f64, period_s: f64, rate: f64, hostile: bool) -> bool {
         .expect("start fdavar_node");
     let pid = node.id().to_string();
 
-    let context = Context::with_options(ContextOptions::new().domain_id(DOMAIN)).expect("context");
-    let mut ros = context
-        .new_node(
-            NodeName::new("/", "fdavar_soak").unwrap(),
-            NodeOptions::new().enable_rosout(false),
-        )
-        .expect("node");
+    let mut ros = peer_node(DOMAIN, "fdavar_soak").expect("node");
     let diag_qos = QosProfile::publisher_default().history(History::KeepLast { depth: 10 });
     let diagnostics =
         subscribe_on::<DiagnosticArray>(&mut ros, "/diagnostics", &diag_qos).expect("subscription");
@@ -373,8 +367,7 @@ fn dds(hours: f64, period_s: f64, rate: f64, hostile: bool) -> bool {
         .reliability_reliable(WhenFull::Wait(Duration::from_millis(100)))
         .history(History::KeepLast { depth: 1 });
     let clock_out = publish_on::<Clock>(&mut ros, "/clock", &clock_qos).expect("publisher");
-    let spinner = ros.spinner().expect("spinner");
-    std::thread::spawn(move || futures::executor::block_on(spinner.spin()));
+    spin_in_background(&mut ros).expect("spinner");
 
     let start = Instant::now();
     let mut player = play(&bag, rate, true);

@@ -1724,30 +1724,18 @@ fn voluntary_switches(pid: u32) -> u64 {
 #[test]
 fn the_node_takes_a_fast_topic_in_batches_a_slow_one_per_message_and_parks_when_silent() {
     use fdavar::msgs::sensor_msgs::Imu;
-    use fdavar::ros::node::publish_on;
-    use ros2_client::{Context, ContextOptions, NodeName, NodeOptions, QosProfile};
+    use fdavar::ros::node::{peer_node, publish_on, spin_in_background, wait_for_subscriber};
+    use ros2_client::QosProfile;
     const DOMAIN: u16 = 93;
     let node = start_node(DOMAIN, &["-p", "diagnosis_period_s:=0.0"]);
     let pid = node.0.id();
-    let context = Context::with_options(ContextOptions::new().domain_id(DOMAIN)).expect("context");
-    let mut peer = context
-        .new_node(
-            NodeName::new("/", "fdavar_batch_test").unwrap(),
-            NodeOptions::new().enable_rosout(false),
-        )
-        .expect("node");
+    let mut peer = peer_node(DOMAIN, "fdavar_batch_test").expect("node");
     let qos = QosProfile::subscription_default()
         .reliability(ros2_client::qos::Reliability::BestEffort)
         .history(ros2_client::qos::History::KeepLast { depth: 100 });
     let imu = publish_on::<Imu>(&mut peer, "/imu", &qos).expect("publisher");
-    // Discovery (and so the match count) runs in the spinner.
-    let spinner = peer.spinner().expect("spinner");
-    std::thread::spawn(move || futures::executor::block_on(spinner.spin()));
-    let matched_by = Instant::now() + Duration::from_secs(30);
-    while imu.get_subscription_count(&peer) == 0 {
-        assert!(Instant::now() < matched_by, "fdavar_node never matched");
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    spin_in_background(&mut peer).expect("spinner");
+    assert!(wait_for_subscriber(&imu, &peer, Duration::from_secs(30)), "fdavar_node never matched");
     std::thread::sleep(Duration::from_millis(500));
     let publish = |n: u64, rate_hz: f64| {
         let start = Instant::now();

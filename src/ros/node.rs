@@ -635,6 +635,45 @@ pub fn publish_on<M: RosMessage>(
     publish(node, name, topic_type::<M>(), qos)
 }
 
+/// A ROS 2 node of its own on `domain_id`, without `/rosout`: how `fdavar play`, the node
+/// benchmarks and the interop tests talk to `fdavar_node` from a Rust process (the node keeps its
+/// DDS context alive). Make its topics, then [`spin_in_background`].
+///
+/// # Errors
+/// [`NodeError::Ros`] when the name is invalid or DDS refuses.
+pub fn peer_node(domain_id: u16, name: &str) -> Result<Node, NodeError> {
+    let context = Context::with_options(ContextOptions::new().domain_id(domain_id))
+        .map_err(|e| ros_err("context")(format!("{e:?}")))?;
+    let name = NodeName::new("/", name).map_err(|e| ros_err("node name")(format!("{e:?}")))?;
+    context
+        .new_node(name, NodeOptions::new().enable_rosout(false))
+        .map_err(|e| ros_err("node")(format!("{e:?}")))
+}
+
+/// Runs `node`'s spinner on a thread of its own: discovery runs there, so a publisher's match
+/// count stays 0 until it does.
+///
+/// # Errors
+/// [`NodeError::Ros`] when the node already has a spinner.
+pub fn spin_in_background(node: &mut Node) -> Result<(), NodeError> {
+    let spinner = node.spinner().map_err(|e| ros_err("spinner")(format!("{e:?}")))?;
+    std::thread::spawn(move || futures::executor::block_on(spinner.spin()));
+    Ok(())
+}
+
+/// Waits, polling every 50 ms, until `publisher` has a subscriber; false once `timeout` passed
+/// without one. The node must spin ([`spin_in_background`]).
+pub fn wait_for_subscriber<M: serde::Serialize>(publisher: &Publisher<M>, node: &Node, timeout: Duration) -> bool {
+    let by = Instant::now() + timeout;
+    while publisher.get_subscription_count(node) == 0 {
+        if Instant::now() >= by {
+            return false;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    true
+}
+
 fn publish<M: serde::Serialize>(
     node: &mut Node,
     name: &str,

@@ -10,12 +10,12 @@
 //! best-effort one rclpy's and rclcpp's time sources create (depth 1) as well as the reliable
 //! default of a plain subscriber, where a best-effort writer would leave the latter unmatched.
 
-use super::node::{publish_on, NodeError};
+use super::node::{peer_node, publish_on, spin_in_background, NodeError};
 use crate::bag::{BagMessage, BagReader};
 use crate::msgs::rosgraph_msgs::Clock;
 use crate::msgs::sensor_msgs::{Imu, Temperature};
 use ros2_client::qos::{History, WhenFull};
-use ros2_client::{Context, ContextOptions, NodeName, NodeOptions, QosProfile};
+use ros2_client::QosProfile;
 use std::time::{Duration, Instant};
 
 /// The slowest replay speed factor accepted: 10⁻⁶ (a 1 s recording then takes 11.6 days).
@@ -131,18 +131,7 @@ pub fn play(bag: &std::path::Path, options: &PlayOptions) -> Result<PlayReport, 
         format!("/{out_imu}")
     };
 
-    let ros = |what: &str| {
-        let what = what.to_string();
-        move |e: String| NodeError::Ros { what, reason: e }
-    };
-    let context = Context::with_options(ContextOptions::new().domain_id(options.domain_id))
-        .map_err(|e| ros("context")(format!("{e:?}")))?;
-    let mut node = context
-        .new_node(
-            NodeName::new("/", "fdavar_play").map_err(|e| ros("node name")(format!("{e:?}")))?,
-            NodeOptions::new().enable_rosout(false),
-        )
-        .map_err(|e| ros("node")(format!("{e:?}")))?;
+    let mut node = peer_node(options.domain_id, "fdavar_play")?;
     let qos = if options.reliable {
         QosProfile::publisher_default()
             .reliability_reliable(WhenFull::Wait(Duration::from_secs(1)))
@@ -163,10 +152,7 @@ pub fn play(bag: &std::path::Path, options: &PlayOptions) -> Result<PlayReport, 
     } else {
         None
     };
-    let spinner = node
-        .spinner()
-        .map_err(|e| ros("spinner")(format!("{e:?}")))?;
-    std::thread::spawn(move || futures::executor::block_on(spinner.spin()));
+    spin_in_background(&mut node)?;
 
     let deadline = Instant::now() + options.wait;
     let mut report = PlayReport::default();

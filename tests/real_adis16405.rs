@@ -261,3 +261,62 @@ fn adis16405_accel_is_two_lines_and_a_louder_second_half() {
         }
     }
 }
+
+/// The accel axes where no common-mode event disturbs them (issue 10, Done 2 — what holds beyond
+/// the first hour): the last 2 800 s of the recording (7 200–10 000 s), on which nothing was studied
+/// or tuned. From N,B,K the diagnosis names the 0.57 Hz line (`sinusoid`), the low-pass
+/// (`bandwidth`) and, on accel_x and accel_y, the second line near 10 Hz (`vibration`), and the
+/// model so diagnosed fits: fit_error after its last suggestion 2.01 / 1.75 / 1.20 on accel_x / y / z
+/// (measured 2026-11-27), asserted ≤ 2 on accel_y and accel_z and ≤ 2.5 on accel_x, whose span at
+/// 9 300–9 650 s is just above the failing level; noise density, cut-off and the lines as in the
+/// first hour. Where z is green, the diagnosed model's curve lies within the points' 1σ on 57 / 67 /
+/// 77 % of them (asserted ≥ 60 % where fit_error ≤ 2, as for the gyro axes). The first hour (the tests above) fails because
+/// of its common-mode excursion at 2 153–2 480 s, and the second hour (2.89 / 2.59 / 2.08) because
+/// of one at 6 820–7 050 s: the vocabulary has no bias that leaves and comes back.
+#[test]
+fn adis16405_accel_fits_where_no_event_disturbs_it() {
+    let Some(path) = recording() else { return };
+    let cols = read(&path, ALL);
+    assert_eq!(cols[3].len(), ALL, "rows of the recording");
+    let last = 2 * SAMPLES..ALL;
+    let opts = FitOptions::default();
+    let base = ModelSpec::parse("N,B,K").unwrap();
+    for (axis, col) in accel_axes(&cols) {
+        let rate = &col[last.clone()];
+        let d = diagnose(&input(axis, rate), &base, REGISTRY, &opts).unwrap();
+        let names: Vec<&str> = d.suggestions.iter().map(|s| s.effect.as_str()).collect();
+        let after = d.suggestions.last().map_or(d.fit.fit_error, |s| s.fit_error_after);
+        let param = |id: &str, name: &str| {
+            let s = d.suggestions.iter().find(|s| s.effect == id)?;
+            s.params.iter().find(|p| p.name == name).map(|p| p.value)
+        };
+        let (n, fc) = (param("bandwidth", "n"), param("bandwidth", "cutoff_hz"));
+        let lines = [param("sinusoid", "frequency_hz"), param("vibration", "frequency_hz")];
+        println!(
+            "{} over 7200-10000 s: N,B,K fit_error {:.2}, suggestions {names:?}, fit_error after {after:.2}, \
+             n {:?} mg/sqrt(Hz), cut-off {fc:?} Hz, lines {lines:?} Hz",
+            axis.name(),
+            d.fit.fit_error,
+            n.map(|n| n / 9.80665e-3)
+        );
+        assert!(names.contains(&"sinusoid") && names.contains(&"bandwidth"), "{}: {names:?}", axis.name());
+        let n = n.unwrap();
+        assert!((0.5 * DATASHEET_N..=2.0 * DATASHEET_N).contains(&n), "{}: n {n}", axis.name());
+        assert!((25.0..=330.0).contains(&fc.unwrap()), "{}: cut-off {fc:?}", axis.name());
+        assert!((0.50..=0.65).contains(&lines[0].unwrap()), "{}: line {lines:?}", axis.name());
+        // The diagnosed model itself: where its z is green, its curve within the points' 1σ.
+        let spec = ModelSpec::parse(&format!("N,B,K,{}", names.join(","))).unwrap();
+        let f = fit(&input(axis, rate), &spec, REGISTRY, &opts).unwrap();
+        let share = green_within_one_sigma(&f);
+        println!("{}: {spec} fit_error {:.2}, green points within 1 sigma {:.0} %", axis.name(), f.fit_error, 100.0 * share);
+        if axis != Axis::AccelZ {
+            assert!((9.5..=11.0).contains(&lines[1].unwrap_or(0.0)), "{}: lines {lines:?}", axis.name());
+        }
+        if axis == Axis::AccelX {
+            assert!(after <= 2.5, "accel_x: fit_error {after}");
+        } else {
+            assert!(after <= 2.0, "{}: fit_error {after}", axis.name());
+            assert!(share >= 0.6, "{}: {share}", axis.name());
+        }
+    }
+}

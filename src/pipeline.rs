@@ -477,7 +477,7 @@ impl Pipeline {
     /// of that axis reuse their memory ([`DavarEngine::recycle`]).
     pub fn recycle(&mut self, row: AxisRow) {
         if let Some(state) = self.running.as_mut().and_then(|r| r.axes.iter_mut().find(|a| a.axis == row.axis)) {
-            state.engine.recycle(row.row.points);
+            state.engine.recycle(row.row);
         }
     }
 

@@ -126,8 +126,7 @@ pub fn axis_state(row: &AxisRow, tau0: f64) -> AxisState {
         f_reference: r.f_target.unwrap_or(f64::NAN),
         sample_period_s: tau0,
         row: r
-            .points
-            .iter()
+            .points()
             .map(|p| DavarPoint {
                 tau_s: p.tau,
                 avar: p.avar,

@@ -39,9 +39,9 @@
 //! from a truncated window.
 
 use super::reference::{FTarget, FTargetTracker, SigmaRef, SigmaRefTracker};
-use super::stats::{IntervalMemo, SharedIntervals};
-use super::{DavarError, DavarRow, WindowPolicy};
-use crate::allan::AllanPoint;
+use super::stats::{IntervalMemo, SharedIntervals, MEMO_SLOTS};
+use super::{DavarError, DavarRow, PointLayout, RowLayout, WindowPolicy};
+use std::sync::Arc;
 
 /// Most point vectors kept for reuse (a push emits one row, rarely several).
 const SPARE_ROWS: usize = 4;
@@ -84,7 +84,7 @@ pub struct EngineConfig {
 /// for k in 0..100 { e.push(Some(((k * 37) % 11) as f64), &mut rows); }
 /// assert_eq!(rows.len(), 100 - 21 + 1);
 /// assert_eq!(rows[0].index, 10);
-/// assert_eq!(rows[0].points.len(), 3);
+/// assert_eq!(rows[0].points().len(), 3);
 /// ```
 pub struct DavarEngine {
     policy: Box<dyn WindowPolicy>,
@@ -97,8 +97,11 @@ pub struct DavarEngine {
     intervals: SharedIntervals,
     /// The intervals met lately, one lane per factor, keyed by window (a row needs one per factor).
     interval_of: IntervalMemo,
-    /// Point vectors of rows handed back by [`DavarEngine::recycle`], reused by the next rows.
-    spare: Vec<Vec<AllanPoint>>,
+    /// Variance vectors of rows handed back by [`DavarEngine::recycle`], reused by the next rows.
+    spare: Vec<Vec<f64>>,
+    /// The layout of the rows of a window without invalid samples, by window (slot W mod
+    /// [`MEMO_SLOTS`]): such rows of one window share it.
+    layouts: Vec<Arc<RowLayout>>,
     /// Indices held, L; the engine rebases every L samples.
     len: usize,
     /// Samples pushed so far (the index of the next sample).
@@ -146,6 +149,23 @@ impl std::fmt::Debug for DavarEngine {
             .field("pending_index", &self.t)
             .field("window", &self.w)
             .finish_non_exhaustive()
+    }
+}
+
+impl PointLayout {
+    /// Point `i` (factor `m`) of a row of window `w` whose sum holds `terms` terms: its interval
+    /// from `memo`, else from `shared`.
+    fn of(
+        i: usize,
+        m: usize,
+        scale: &Scale,
+        terms: usize,
+        w: usize,
+        memo: &mut IntervalMemo,
+        shared: &SharedIntervals,
+    ) -> PointLayout {
+        let (edf, low, high) = memo.get(w, i, terms, || shared.factors(m, terms));
+        PointLayout { m, tau: scale.tau, terms, edf, low, high }
     }
 }
 
@@ -225,6 +245,7 @@ impl DavarEngine {
             intervals,
             interval_of: IntervalMemo::new(factors.len()),
             spare: Vec::new(),
+            layouts: (0..MEMO_SLOTS).map(|_| Arc::default()).collect(),
             len,
             n: 0,
             base: 0,
@@ -277,12 +298,13 @@ impl DavarEngine {
         self.emit_ready(out);
     }
 
-    /// Hands back the points of a row this engine made, so that a later row reuses their memory
-    /// instead of allocating (a row is made per sample and axis).
-    pub fn recycle(&mut self, mut points: Vec<AllanPoint>) {
+    /// Hands back a row this engine made, so that a later row reuses its memory instead of
+    /// allocating (a row is made per sample and axis).
+    pub fn recycle(&mut self, row: DavarRow) {
         if self.spare.len() < SPARE_ROWS {
-            points.clear();
-            self.spare.push(points);
+            let mut avars = row.avars;
+            avars.clear();
+            self.spare.push(avars);
         }
     }
 
@@ -471,10 +493,7 @@ impl DavarEngine {
         let sigma2_ref = self.sigma_ref.current();
         let f = sigma2_ref.map(|r| variance / r);
         let f_target = self.f_target.target(valid);
-        let mut points = self
-            .spare
-            .pop()
-            .unwrap_or_else(|| Vec::with_capacity(self.factors.len()));
+        let mut avars_out = self.spare.pop().unwrap_or_else(|| Vec::with_capacity(self.factors.len()));
         let w = self.w;
         // The factors are ascending: those with 3m ≤ W are the first `used`.
         let used = self.factors.partition_point(|&m| 3 * m <= w);
@@ -509,32 +528,33 @@ impl DavarEngine {
             *avar = sum / (scale.two_m2 * count as i64 as f64); // 0/0 where count = 0: unused
         }
         let mut excluded = 0usize;
-        let (memo, shared) = (&mut self.interval_of, &self.intervals);
-        let mut point = |i: usize, m: usize, scale: &Scale, terms: usize, avar: f64| {
-            let (edf, lo, hi) = memo.get(w, i, terms, || shared.factors(m, terms));
-            AllanPoint {
-                m,
-                tau: scale.tau,
-                avar,
-                terms,
-                edf,
-                ci_low: avar * lo,
-                ci_high: avar * hi,
+        let layout = if full {
+            // No factor is left out: the window's layout, made once per window.
+            avars_out.extend_from_slice(avars);
+            let slot = &mut self.layouts[w % MEMO_SLOTS];
+            if slot.window != w || slot.points.len() != used {
+                let (memo, shared) = (&mut self.interval_of, &self.intervals);
+                let points = (0..used)
+                    .map(|i| PointLayout::of(i, self.factors[i], &self.scales[i], w - 2 * self.factors[i] + 1, w, memo, shared))
+                    .collect();
+                *slot = Arc::new(RowLayout { window: w, points });
             }
-        };
-        let each = self.factors.iter().zip(&self.scales).zip(counts.iter().zip(avars.iter())).enumerate();
-        if full {
-            // No factor is left out: one extend of known length, no capacity check per point.
-            points.extend(each.map(|(i, ((&m, scale), (&count, &avar)))| point(i, m, scale, count as usize, avar)));
+            Arc::clone(slot)
         } else {
-            for (i, ((&m, scale), (&count, &avar))) in each {
+            let (memo, shared) = (&mut self.interval_of, &self.intervals);
+            let mut points = Vec::with_capacity(used);
+            for (i, ((&m, scale), (&count, &avar))) in
+                self.factors.iter().zip(&self.scales).zip(counts.iter().zip(avars.iter())).enumerate()
+            {
                 let terms = count as usize;
                 excluded += w - 2 * m + 1 - terms;
                 if terms > 0 {
-                    points.push(point(i, m, scale, terms, avar));
+                    points.push(PointLayout::of(i, m, scale, terms, w, memo, shared));
+                    avars_out.push(avar);
                 }
             }
-        }
+            Arc::new(RowLayout { window: 0, points })
+        };
         self.excluded_total += excluded as u64;
         Some(DavarRow {
             index: self.t,
@@ -546,7 +566,8 @@ impl DavarEngine {
             f_target,
             sigma2_ref,
             excluded_terms: excluded,
-            points,
+            avars: avars_out,
+            layout,
         })
     }
 }

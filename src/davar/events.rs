@@ -128,7 +128,7 @@ impl ChangeDetector {
     /// Whether `row` is outside the band of the steady level; `None` while warming up or when the
     /// row has no point.
     pub fn flag(&mut self, row: &DavarRow) -> Option<bool> {
-        let p = row.points.first()?;
+        let p = row.first_point()?;
         if self.level.count() < self.config.warmup_rows as u64 {
             return None;
         }
@@ -146,7 +146,7 @@ impl ChangeDetector {
     /// Feeds one row; returns an event when one has just closed. `time_of` maps a sample index to
     /// seconds from the first sample.
     pub fn push(&mut self, row: &DavarRow, time_of: &dyn Fn(u64) -> f64) -> Option<ChangeEvent> {
-        let avar = row.points.first()?.avar;
+        let avar = row.first_point()?.avar;
         let flagged = self.flag(row);
         // Quieter rows are learned even when flagged (rule 2 of the module doc).
         let quieter = self.level.median().is_some_and(|level| avar < level);

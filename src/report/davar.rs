@@ -50,7 +50,7 @@ impl Bin {
 
     fn add(&mut self, r: &AxisRow) {
         self.rows += 1;
-        for p in &r.row.points {
+        for p in r.row.points() {
             let dev = p.adev();
             // A σ of 0 has no place on the log colour scale: no value, as a gap.
             if dev > 0.0 && dev.is_finite() {
@@ -246,7 +246,7 @@ mod tests {
                 f_target: Some(1.0),
                 sigma2_ref: Some(1.0),
                 excluded_terms: 0,
-                points,
+                ..DavarRow::of_points(&points)
             },
         }
     }

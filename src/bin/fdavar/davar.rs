@@ -476,7 +476,7 @@ fn opt(v: Option<f64>) -> String {
 }
 
 fn write_csv_row(w: &mut impl Write, r: &AxisRow) -> std::io::Result<()> {
-    for p in &r.row.points {
+    for p in r.row.points() {
         writeln!(
             w,
             "{},{:.6},{},{},{},{},{},{},{},{:.6},{:.9e},{:.9e},{},{:.3},{:.9e},{:.9e}",

@@ -43,7 +43,7 @@ use super::stats::{IntervalMemo, SharedIntervals, MEMO_SLOTS};
 use super::{DavarError, DavarRow, PointLayout, RowLayout, WindowPolicy};
 use std::sync::Arc;
 
-/// Most point vectors kept for reuse (a push emits one row, rarely several).
+/// Most variance vectors kept for reuse (a push emits one row, rarely several).
 const SPARE_ROWS: usize = 4;
 
 /// Extra held indices beyond λ2 (the proof in [`DavarEngine::new`] needs 2).
@@ -532,7 +532,7 @@ impl DavarEngine {
             // No factor is left out: the window's layout, made once per window.
             avars_out.extend_from_slice(avars);
             let slot = &mut self.layouts[w % MEMO_SLOTS];
-            if slot.window != w || slot.points.len() != used {
+            if slot.window != w {
                 let (memo, shared) = (&mut self.interval_of, &self.intervals);
                 let points = (0..used)
                     .map(|i| PointLayout::of(i, self.factors[i], &self.scales[i], w - 2 * self.factors[i] + 1, w, memo, shared))

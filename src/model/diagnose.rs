@@ -839,6 +839,9 @@ impl<'a> Driver<'a> {
     }
 }
 
+/// Least (size/σ)² of a step's GLS estimate for the step to be suggested: resolved at 2σ.
+const RESOLVED_T2: f64 = 4.0;
+
 /// A time-domain test against the base noise `w` of the cleaned `series` (`bound` makes the same
 /// noise with every term at its upper bound; only a slow driver asks for it).
 ///
@@ -894,7 +897,17 @@ fn time_test<'a>(
         }
         Signature::MeanStep => {
             let scan = timedomain::step_scan(series, w.noise())?;
-            plain(Test::by_p(scan.t2, scan.p_value, |t2| scan.p_at(t2)))
+            let mut test = Test::by_p(scan.t2, scan.p_value, |t2| scan.p_at(t2));
+            // The scan's best contrast is a step only if the whole record resolves one there:
+            // its GLS size at least 2σ (`step_size`, what the suggestion reports). For a real
+            // step the two agree; they part where the scan's block noise model does not hold —
+            // a rate explained exactly by a regression left rounding noise, and the scan named a
+            // step of 3.7·10⁻²⁰ ± 5·10⁻¹⁹ rad/s.
+            if test.significant {
+                test.significant = timedomain::step_size(series, scan.index, w.noise())
+                    .is_some_and(|g| g.t2 >= RESOLVED_T2);
+            }
+            plain(test)
         }
         Signature::WhiteLevel => {
             let blocks = series.len() / timedomain::block_len(input.tau0);
@@ -937,6 +950,39 @@ mod tests {
 
     fn order(scored: &[(Suggestion, f64, ())]) -> Vec<&str> {
         scored.iter().map(|(s, ..)| s.effect.as_str()).collect()
+    }
+
+    #[test]
+    fn a_rate_explained_exactly_by_a_regression_gets_no_step_in_its_rounding_noise() {
+        // gyro = 0.1 s²·accel_x exactly (a bench's synthetic stream; 60 s at 2 kHz): once
+        // g_sensitivity removes it, what is left is floating-point rounding, in which the step
+        // scan found a "step" of 3.7·10⁻²⁰ ± 5·10⁻¹⁹ rad/s before its GLS size had to be resolved.
+        let mut x = 0x2545_f491_4f6c_dd1d_u64;
+        let v: Vec<f64> = (0..120_000)
+            .map(|_| {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+            })
+            .collect();
+        let gyro: Vec<f64> = v.iter().map(|v| 1e-3 * v).collect();
+        let accel_x: Vec<f64> = v.iter().map(|v| 1e-2 * v).collect();
+        let (zero, g) = (vec![0.0; v.len()], vec![9.81; v.len()]);
+        let input = AxisInput {
+            axis: Axis::GyroX,
+            tau0: 5e-4,
+            rate: &gyro,
+            temperature_c: None,
+            accel: Some([&accel_x, &zero, &g]),
+            events: &[],
+        };
+        let base = ModelSpec::parse("N,B,K").unwrap();
+        let d = diagnose(&input, &base, REGISTRY, &FitOptions::default()).unwrap();
+        let names: Vec<&str> = d.suggestions.iter().map(|s| s.effect.as_str()).collect();
+        assert_eq!(names, [id::G_SENSITIVITY]);
+        let c = d.suggestions[0].params.iter().find(|p| p.name == "coefficient").unwrap().value;
+        assert!((c - 0.1).abs() <= 1e-12, "coefficient {c}");
     }
 
     #[test]

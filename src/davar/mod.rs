@@ -124,7 +124,10 @@ pub struct DavarRow {
 /// The points of a row but their Allan variance: what the rows of one window share.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct RowLayout {
+    /// The window W of the rows that share it; 0 for the layout of one row with invalid samples
+    /// (or one made by hand), which no other row shares.
     pub(crate) window: usize,
+    /// One per point, ascending in τ.
     pub(crate) points: Vec<PointLayout>,
 }
 

@@ -899,10 +899,11 @@ fn time_test<'a>(
             let scan = timedomain::step_scan(series, w.noise())?;
             let mut test = Test::by_p(scan.t2, scan.p_value, |t2| scan.p_at(t2));
             // The scan's best contrast is a step only if the whole record resolves one there:
-            // its GLS size at least 2σ (`step_size`, what the suggestion reports). For a real
-            // step the two agree; they part where the scan's block noise model does not hold —
-            // a rate explained exactly by a regression left rounding noise, and the scan named a
-            // step of 3.7·10⁻²⁰ ± 5·10⁻¹⁹ rad/s.
+            // its GLS size at the scan's time at least 2σ (`step_size`; the suggestion reports
+            // that size at the estimator's time, `find_step`'s, the same for a real step). For
+            // a real step the two tests agree; they part where the scan's block noise model
+            // does not hold — a rate explained exactly by a regression left rounding noise, and
+            // the scan named a step of 3.7·10⁻²⁰ ± 5·10⁻¹⁹ rad/s.
             if test.significant {
                 test.significant = timedomain::step_size(series, scan.index, w.noise())
                     .is_some_and(|g| g.t2 >= RESOLVED_T2);
@@ -954,7 +955,8 @@ mod tests {
 
     #[test]
     fn a_rate_explained_exactly_by_a_regression_gets_no_step_in_its_rounding_noise() {
-        // gyro = 0.1 s²·accel_x exactly (a bench's synthetic stream; 60 s at 2 kHz): once
+        // gyro = 0.1 s²·accel_x exactly: 60 s of the node bench's own stream (its xorshift, so
+        // the very samples of the case; a ChaCha stream of the same law did not show it). Once
         // g_sensitivity removes it, what is left is floating-point rounding, in which the step
         // scan found a "step" of 3.7·10⁻²⁰ ± 5·10⁻¹⁹ rad/s before its GLS size had to be resolved.
         let mut x = 0x2545_f491_4f6c_dd1d_u64;

@@ -203,7 +203,7 @@ fn adis16405_accel_is_the_low_pass_and_a_0_56_hz_line() {
 }
 
 /// The accel axes with both lines and the louder second half (issue 10, Done 2 — what holds;
-/// docs/model.md, "On the ADIS16405"): from B,K,bandwidth,sinusoid the diagnosis names the second
+/// docs/model-measurements.md, "The real ADIS16405: every measurement"): from B,K,bandwidth,sinusoid the diagnosis names the second
 /// line (`vibration`, near 10 Hz) first on accel_x (fit_error after 4.31) and on accel_y the
 /// louder second half (`noise_burst` from about 2155 s to the end, ×1.13: 4.44) before the line
 /// (7.26: the burst explains more, and a located effect that explains the most comes first); with

@@ -1025,7 +1025,8 @@ impl StepScan {
 
 /// Shorter windows at each end of the record for [`step_scan`]: W/2, W/4, … W/2^k on the side
 /// that has less than W. Why: the scan compares two full windows, so a step within W of either
-/// end had none on one side (docs/model.md, "Known limits": at 12 s and 36 s of 20 min, 0 of 3).
+/// end had none on one side (docs/model-measurements.md, "Known limits that were fixed": at 12 s
+/// and 36 s of 20 min, 0 of 3).
 const STEP_END_SPLITS: u32 = 4;
 
 /// Longest and shortest step windows, as fractions of the record.

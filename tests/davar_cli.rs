@@ -109,8 +109,35 @@ fn csv_has_one_line_per_row_and_tau() {
     assert!(lines
         .next()
         .unwrap()
-        .starts_with("axis,time_s,stamp_ns,index,window"));
-    assert!(lines.all(|l| l.starts_with("gyro_x,") && l.split(',').count() == 16));
+        .starts_with("axis,time_s,stamp_ns,index,window,f,f_target,sigma2_ref,m,tau_s,avar"));
+    let lines: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert!(lines.iter().all(|l| l[0] == "gyro_x" && l.len() == 16));
+    // The same rows as JSON: one CSV line per (row, τ), in order, with the row's index, m, τ and
+    // σ²(τ) (printed to 10 significant digits).
+    let json = fdavar()
+        .args(["davar", file.path().to_str().unwrap(), "--column", "rate", "--rate", "100", "--json", "--every", "5"])
+        .output()
+        .unwrap();
+    let doc: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+    let points: Vec<(u64, &serde_json::Value)> = doc["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|r| {
+            let index = r["row"]["index"].as_u64().unwrap();
+            r["row"]["points"].as_array().unwrap().iter().map(move |p| (index, p))
+        })
+        .collect();
+    assert!(points.len() > 20, "{} points", points.len());
+    assert_eq!(lines.len(), points.len());
+    for (line, (index, p)) in lines.iter().zip(&points) {
+        assert_eq!(line[3].parse::<u64>().unwrap(), *index);
+        assert_eq!(line[8].parse::<u64>().unwrap(), p["m"].as_u64().unwrap());
+        let (tau, avar): (f64, f64) = (line[9].parse().unwrap(), line[10].parse().unwrap());
+        assert!((tau - p["tau"].as_f64().unwrap()).abs() < 1e-9, "{line:?}");
+        let want = p["avar"].as_f64().unwrap();
+        assert!((avar / want - 1.0).abs() < 1e-9, "{line:?}: avar {avar} vs {want}");
+    }
 }
 
 #[test]

@@ -493,6 +493,18 @@ fn every_effect_explains_itself_and_round_trips_its_params() {
         assert_eq!(back, values, "{}", kind.id());
         let e = effect.explain();
         assert!(!e.sentence.is_empty() && !e.reference.is_empty());
+        // The five terms of IEEE 952's model cite the clause that derives their signature.
+        let clause = match kind.id() {
+            "quantization" => Some("Annex C.1"),
+            "white" => Some("Annex C.2"),
+            "bias_instability" => Some("Annex C.3"),
+            "random_walk" => Some("Annex C.4"),
+            "ramp" => Some("Annex C.5"),
+            _ => None,
+        };
+        if let Some(clause) = clause {
+            assert!(e.reference.starts_with("IEEE Std 952-1997 ") && e.reference.contains(clause), "{}: {}", kind.id(), e.reference);
+        }
         assert_eq!(
             effect.avar(1.0).is_some(),
             kind.domain() == Domain::Spectral,

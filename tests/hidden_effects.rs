@@ -140,7 +140,8 @@ fn run(c: &Case) {
         let got = p.value;
         println!("  {} = {got:.4e} (truth {truth:.4e})", p.name);
         let ok = match tol {
-            Tol::Rel(r) => (got.abs() - truth.abs()).abs() <= r * truth.abs(),
+            // Signed: a step, a coefficient or a slope fitted with the wrong sign is wrong.
+            Tol::Rel(r) => (got - truth).abs() <= r * truth.abs(),
             Tol::Record(f) => (got - truth).abs() <= f * record_s,
             Tol::Exact => got == truth,
         };

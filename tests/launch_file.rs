@@ -112,7 +112,9 @@ fn the_launch_file_names_what_the_package_builds_and_installs() {
     assert_eq!(node["name"], "fdavar");
     // The imu argument remaps the node's `imu` subscription.
     let imu = launch.iter().find(|e| e.tag == "arg" && e.attrs["name"] == "imu").expect("an imu arg");
-    assert!(imu.attrs.contains_key("default") && imu.attrs.contains_key("description"));
+    // Its default is the identity remap: without imu:=…, the node watches the relative `imu`.
+    assert_eq!(imu.attrs["default"], "imu");
+    assert!(imu.attrs["description"].contains("sensor_msgs/msg/Imu"), "{:?}", imu.attrs);
     let remap = &launch.iter().find(|e| e.tag == "remap").unwrap().attrs;
     assert_eq!((remap["from"].as_str(), remap["to"].as_str()), ("imu", "$(var imu)"));
     // colcon-ros-cargo copies launch/ and launch_params/ into share/fdavar/.

@@ -643,7 +643,18 @@ fn window_nan_warmup_is_drawn() {
     let (_tmp, stem) = stem();
     let mut t = window_trace();
     t.f_value[..50].iter_mut().for_each(|f| *f = f64::NAN);
-    write_window_trace(&t, &stem).unwrap();
+    let paths = write_window_trace(&t, &stem).unwrap();
+    check_written(&paths, (1250, 780), &["F value", "window length W [samples]"]);
+    // The 50 rows without F are left out of the F line, not drawn as zeros or gaps of NaN: the
+    // figure's lines hold 50 vertices fewer than those of the whole trace.
+    let vertices = |svg: &str| -> usize {
+        svg.split("points=\"").skip(1).map(|rest| rest.split('"').next().unwrap().split_whitespace().count()).sum()
+    };
+    let (_keep, dir) = out_dir();
+    let whole = write_window_trace(&window_trace(), &dir.join("whole")).unwrap();
+    let (with_nan, without) = (std::fs::read_to_string(&paths[1]).unwrap(), std::fs::read_to_string(&whole[1]).unwrap());
+    assert!(!with_nan.contains("NaN"), "NaN written into the SVG");
+    assert_eq!(vertices(&without) - vertices(&with_nan), 50);
 }
 
 #[test]

@@ -343,35 +343,19 @@ fn results_flags_misused_exit_2() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("r.mcap");
     let params = root().join("launch_params/seed_2016.yaml");
-    for args in [
-        vec!["diagnose", bag_s, "--params", params.to_str().unwrap()],
-        vec!["fit", bag_s, "--model", "N", "--mcap-every", "1"],
-        vec!["diagnose", bag_s, "--mcap", dir.path().to_str().unwrap()],
-        vec![
-            "diagnose",
-            bag_s,
-            "--mcap",
-            out.to_str().unwrap(),
-            "--mcap-every",
-            "0",
-        ],
+    // Each misuse with the words its message must name.
+    for (args, says) in [
+        (vec!["diagnose", bag_s, "--params", params.to_str().unwrap()], "--mcap"),
+        (vec!["fit", bag_s, "--model", "N", "--mcap-every", "1"], "--mcap"),
+        (vec!["diagnose", bag_s, "--mcap", dir.path().to_str().unwrap()], "a directory"),
+        (vec!["diagnose", bag_s, "--mcap", out.to_str().unwrap(), "--mcap-every", "0"], "positive number of seconds"),
         // seed_2016.yaml asks for sigma_ref.mode record (the whole record's variance).
-        vec![
-            "diagnose",
-            bag_s,
-            "--mcap",
-            out.to_str().unwrap(),
-            "--params",
-            params.to_str().unwrap(),
-        ],
+        (vec!["diagnose", bag_s, "--mcap", out.to_str().unwrap(), "--params", params.to_str().unwrap()], "sigma_ref.mode 'record'"),
     ] {
         let o = fdavar(&args);
-        assert_eq!(
-            o.status.code(),
-            Some(2),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(says), "{args:?}: {stderr}");
     }
     assert!(!out.exists(), "a refused run wrote {}", out.display());
 }

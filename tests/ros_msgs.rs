@@ -221,9 +221,13 @@ fn standard_mirrors_have_the_recorded_cdr_sizes() {
         variance: 0.0,
     };
     assert_eq!(round_trip(&temperature), 44);
-    round_trip(&Clock {
-        clock: fdavar::msgs::builtin_interfaces::Time { sec: 5, nanosec: 7 },
-    });
+    // The 4-byte header, then int32 sec and uint32 nanosec (rosgraph_msgs/msg/Clock).
+    assert_eq!(
+        round_trip(&Clock {
+            clock: fdavar::msgs::builtin_interfaces::Time { sec: 5, nanosec: 7 },
+        }),
+        12
+    );
     round_trip(&DiagnosticArray {
         header: header(),
         status: vec![DiagnosticStatus {

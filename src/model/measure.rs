@@ -193,8 +193,25 @@ mod tests {
             let e: Vec<f64> = [1, 10, 100, 1000].iter().map(|&m| edf_oavar(class, 10_001, m)).collect();
             assert!(e.windows(2).all(|w| w[1] <= w[0]), "{class:?}: {e:?}");
         }
+        // NIST SP 1065 Table 12 at n = 1001 phase points, m = 10 (and m = 1 for flicker FM's own
+        // formula), worked out by hand from the table: White PM 1002·981/(2·991), White FM
+        // (150 − 2·999/1001)·400/405, Flicker FM 5·1001²/(40·1031), RW FM
+        // 99.9·(1000² − 30·1000 + 400)/998², Flicker FM at m = 1 2·999²/(2.3·1001 − 4.9).
+        for (class, m, want) in [
+            (NoiseClass::WhitePm, 10, 495.944_5),
+            (NoiseClass::WhiteFm, 10, 146.176_8),
+            (NoiseClass::FlickerFm, 10, 121.484_1),
+            (NoiseClass::RandomWalkFm, 10, 97.331_9),
+            (NoiseClass::FlickerFm, 1, 868.809_1),
+        ] {
+            let e = edf_oavar(class, 1001, m);
+            assert!((e - want).abs() < 1e-3, "{class:?} m = {m}: {e}, table {want}");
+        }
         // A mix of one part is that part.
         let one = edf_for_mix(&[(2.0, NoiseClass::FlickerFm)], 5000, 30);
         assert!((one - edf_oavar(NoiseClass::FlickerFm, 5000, 30)).abs() < 1e-9);
+        // Equal parts of white and random-walk FM: 2²/(1/146.1768 + 1/97.3319).
+        let two = edf_for_mix(&[(1.0, NoiseClass::WhiteFm), (1.0, NoiseClass::RandomWalkFm)], 1001, 10);
+        assert!((two - 233.711).abs() < 1e-2, "{two}");
     }
 }

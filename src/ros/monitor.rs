@@ -1300,14 +1300,14 @@ mod tests {
             m.push(sample(t, 0.0), "imu", t);
         }
         m.report(t);
-        assert!(m.add_drops(5).is_some());
+        assert_eq!(m.add_drops(5), Some(BadInput::QueueFull.describe()));
         assert!(m.add_drops(5).is_none(), "logged once");
         for _ in 0..100 {
             t += MS; // 10× faster
             m.push(sample(t, 0.0), "imu", t);
         }
         let (a, _, line) = m.report(t);
-        assert!(line.is_some());
+        assert_eq!(line, Some(BadInput::RateChange.describe()));
         assert_eq!(value(&a, 0, "drops"), "10");
         assert_eq!(value(&a, 0, "rate_changes"), "1");
     }

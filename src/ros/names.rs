@@ -194,12 +194,28 @@ mod tests {
 
     #[test]
     fn invalid_names_are_refused_with_a_reason() {
-        for bad in ["", "~x", "a//b", "a/", "1imu", "im-u", "/a/2b"] {
-            assert!(expand(bad, "/", "n").is_err(), "{bad:?} accepted");
+        fn reason<T: std::fmt::Debug>(r: Result<T, NameError>) -> &'static str {
+            match r {
+                Err(NameError::Invalid { reason, .. }) => reason,
+                Ok(v) => panic!("accepted: {v:?}"),
+            }
+        }
+        let syntax = "tokens are [A-Za-z_][A-Za-z0-9_]* separated by single '/', no trailing '/'";
+        for (bad, why) in [
+            ("", "empty"),
+            ("~x", "'~' must be followed by '/'"),
+            ("a//b", syntax),
+            ("a/", syntax),
+            ("1imu", syntax),
+            ("im-u", syntax),
+            ("/a/2b", syntax),
+        ] {
+            assert_eq!(reason(expand(bad, "/", "n")), why, "{bad:?}");
         }
         assert!(check_node_name("fdavar").is_ok());
-        assert!(check_node_name("9x").is_err());
-        assert!(check_node_name("a/b").is_err());
+        assert_eq!(reason(check_node_name("")), "empty");
+        assert_eq!(reason(check_node_name("9x")), "must start with a letter or '_'");
+        assert_eq!(reason(check_node_name("a/b")), "only letters, digits and '_' are allowed");
     }
 
     #[test]

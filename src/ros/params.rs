@@ -527,9 +527,12 @@ mod tests {
     fn invalid_values_are_refused_with_a_reason() {
         let e = validate("publish_rate_hz", &ParameterValue::Double(-1.0)).unwrap_err();
         assert!(e.to_string().contains("(0, 100]"), "{e}");
-        assert!(validate("publish_rate_hz", &ParameterValue::String("x".into())).is_err());
-        assert!(validate("queue_size", &ParameterValue::Integer(0)).is_err());
-        assert!(validate("no_such", &ParameterValue::Integer(0)).is_err());
+        let e = validate("publish_rate_hz", &ParameterValue::String("x".into())).unwrap_err();
+        assert!(e.to_string().contains("publish_rate_hz"), "{e}");
+        let e = validate("queue_size", &ParameterValue::Integer(0)).unwrap_err();
+        assert!(e.to_string().contains("[1, 1000000], got 0"), "{e}");
+        let e = validate("no_such", &ParameterValue::Integer(0)).unwrap_err();
+        assert!(e.to_string().contains("no_such"), "{e}");
         assert!(validate("model", &ParameterValue::String("N,B,K,sinusoid".into())).is_ok());
         let e = validate("model", &ParameterValue::String("N,warp_drive".into())).unwrap_err();
         assert!(e.to_string().contains("warp_drive"), "{e}");
@@ -567,12 +570,14 @@ mod tests {
         let (v, _) =
             davar_startup(&[], &[("window.step".into(), ParameterValue::Integer(8))]).unwrap();
         assert_eq!(v["window.step"], DavarValue::Int(8));
-        assert!(startup_values(
+        let node = startup_values(
             &[],
             &[("window.step".into(), ParameterValue::Integer(8))],
-            "/fdavar"
+            "/fdavar",
         )
-        .is_ok());
+        .unwrap();
+        assert!(!node.contains_key("window.step"), "{node:?}");
+        assert_eq!(node["queue_size"], (spec("queue_size").unwrap().default)());
     }
 
     /// Issue 13: the node validates `-p`, parameter files and SetParameters with the DAVAR table's

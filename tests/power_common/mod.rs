@@ -582,7 +582,8 @@ fn run_on(s: &Setting, hidden: &Hidden, loss: Option<LostMessages>, cutoff_per_r
         }
         "s" if kind.evidence() == Evidence::Events => (got - truth.value).abs() / (0.01 * s.seconds()),
         "s" => (got / truth.value - 1.0).abs() / 0.25,
-        _ => (got.abs() / truth.value.abs() - 1.0).abs() / 0.10,
+        // Signed: a step, a coefficient or a slope of the wrong sign is off by more than 100 %.
+        _ => (got / truth.value - 1.0).abs() / 0.10,
     };
     let worst_of = |truth: &[fdavar::model::effects::Param], got: &[f64]| -> f64 {
         truth.iter().zip(got).map(|(t, &g)| if g.is_finite() { error(t, g) } else { f64::INFINITY }).fold(0.0, f64::max)

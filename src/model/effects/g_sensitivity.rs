@@ -60,6 +60,11 @@ pub(super) static KIND: Extended<WithEstimator> =
 /// where a_s is the measured specific force on accel axis s and ā_s its mean over the finite
 /// samples. On a gyro axis only: an accel axis has no g-sensitivity of its own.
 ///
+/// What it cannot tell: on a sensor that did not move, the accel axis varies only by its own noise
+/// and bias drift, so a slope found there is a driver both biases share (temperature without a
+/// topic: the real ADIS16405, docs/model.md "Known limits"), not g-sensitivity; the explanation
+/// says so.
+///
 /// # References
 /// Whittle P., "Curve and periodogram smoothing", JRSS B 19(1), 1957; Analog Devices AN-1049.
 struct OnAccel;
@@ -188,7 +193,8 @@ impl Effect for GSensitivity {
         Explanation {
             sentence: format!(
                 "the gyro responds to acceleration on {} at {:.3e} (rad/s) per m/s²: vibration or \
-                 manoeuvres leak into the rate",
+                 manoeuvres leak into the rate (if the sensor did not move, a slow driver both \
+                 biases share, such as temperature, reads the same)",
                 self.source(),
                 self.coefficient
             ),

@@ -154,8 +154,8 @@ fn adis16405_gyro_z_is_the_low_pass_and_a_21_hz_line() {
 /// (`sinusoid`) on every axis, and the model B,K,bandwidth,sinusoid has physical parameters — noise
 /// density within a factor 2 of the data sheet's 0.5 mg/√Hz (4.9e-3 m/s²/√Hz:
 /// ../shared/reference/imu_noise_params.md, "datasheet, approximate"; the README's ADEV of
-/// 0.5–0.7 mg at 1 s says the same), cut-off near the default filter's 68 Hz ([`CUTOFF_HZ`]), the line
-/// at 0.50–0.65 Hz — and lowers fit_error at least 3× on every axis. The whole-record Allan variance
+/// 0.5–0.7 mg at 1 s says the same), cut-off near the default filter's 68 Hz ([`CUTOFF_HZ`]), the
+/// line at 0.50–0.65 Hz — and lowers fit_error at least 3× on every axis. The whole-record Allan variance
 /// of accel_z fits (whole-record fit_error ≤ 2, green points within 1σ ≥ 60 %: measured 1.51, 76 %;
 /// on accel_x/y 45 % and 57 %); fit_error ≤ 2 itself does NOT hold on any accel axis
 /// (measured 5.93, 7.36, 3.44): the span check fails because the record is not stationary at the
@@ -210,8 +210,9 @@ fn adis16405_accel_is_the_low_pass_and_a_0_56_hz_line() {
 }
 
 /// The accel axes with both lines and the louder second half (issue 10, Done 2 — what holds;
-/// docs/model-measurements.md, "The real ADIS16405: every measurement"): from B,K,bandwidth,sinusoid the diagnosis names the second
-/// line (`vibration`, near 10 Hz) first on accel_x (fit_error after 4.31) and on accel_y the
+/// docs/model-measurements.md, "The real ADIS16405: every measurement"): from
+/// B,K,bandwidth,sinusoid the diagnosis names the second line (`vibration`, near 10 Hz) first on
+/// accel_x (fit_error after 4.31) and on accel_y the
 /// louder second half (`noise_burst` from about 2155 s to the end, ×1.13: 4.44) before the line
 /// (7.26: the burst explains more, and a located effect that explains the most comes first); with
 /// both the whole-record Allan variance of every

@@ -1206,9 +1206,14 @@ fn sigterm_stops_the_node_with_exit_0_and_a_complete_dump() {
 #[test]
 fn sigint_stops_the_node_started_in_the_background_of_a_non_interactive_shell() {
     // The premise: such a shell starts background commands with SIGINT ignored (bit 2 of SigIgn).
+    // Read once the child runs `sleep`: the forked shell sets the disposition just before its
+    // exec, and a read before that (a loaded machine) saw only what the shell itself ignores.
     let out = Command::new("bash")
         .arg("-c")
-        .arg("sleep 30 & grep SigIgn /proc/$!/status; kill $!")
+        .arg(
+            "sleep 30 & pid=$!; until [ \"$(cat /proc/$pid/comm 2>/dev/null)\" = sleep ]; do :; done; \
+             grep SigIgn /proc/$pid/status; kill $pid",
+        )
         .output()
         .unwrap();
     let line = String::from_utf8_lossy(&out.stdout).into_owned();

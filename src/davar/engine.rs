@@ -301,8 +301,12 @@ impl DavarEngine {
     /// Hands back a row this engine made, so that a later row reuses its memory instead of
     /// allocating (a row is made per sample and axis).
     pub fn recycle(&mut self, row: DavarRow) {
-        if self.spare.len() < SPARE_ROWS {
-            let mut avars = row.avars;
+        self.recycle_avars(row.avars);
+    }
+
+    /// [`DavarEngine::recycle`] of a row's variance vector alone (taken out of the row).
+    pub(crate) fn recycle_avars(&mut self, mut avars: Vec<f64>) {
+        if self.spare.len() < SPARE_ROWS && avars.capacity() > 0 {
             avars.clear();
             self.spare.push(avars);
         }

@@ -95,13 +95,13 @@ fn run_rows(mut pipeline: Pipeline, rx: Receiver<Arc<[ImuSample]>>) -> Rows {
     let mut summaries: Vec<RowSummary> = Vec::new();
     let mut events = Vec::new();
     let mut take = |pipeline: &mut Pipeline, out: &mut Output| {
-        for r in out.rows.drain(..) {
+        for r in &out.rows {
             match summaries.iter_mut().find(|s| s.axis == r.axis) {
-                Some(s) => s.add(&r),
-                None => summaries.push(RowSummary::of(&r)),
+                Some(s) => s.add(r),
+                None => summaries.push(RowSummary::of(r)),
             }
-            pipeline.recycle(r);
         }
+        pipeline.recycle_all(&mut out.rows);
         events.append(&mut out.events);
     };
     for chunk in rx {

@@ -173,18 +173,20 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let mut out = Output::default();
     let mut events = Vec::new();
     let mut messages = 0u64;
-    let mut take = |out: &mut Output, events: &mut Vec<AxisEvent>| -> anyhow::Result<()> {
-        for row in out.rows.drain(..) {
-            figures.iter_mut().for_each(|f| f.push(&row));
-            printer.row(&row).context("writing output")?;
+    let mut take = |pipeline: &mut Pipeline, out: &mut Output, events: &mut Vec<AxisEvent>| -> anyhow::Result<()> {
+        for row in &out.rows {
+            figures.iter_mut().for_each(|f| f.push(row));
+            printer.row(row).context("writing output")?;
         }
+        // Printed: their memory serves the next rows.
+        pipeline.recycle_all(&mut out.rows);
         events.append(&mut out.events);
         Ok(())
     };
     run.input.each_sample(&mut |s| {
         messages += 1;
         pipeline.push(s, &mut out);
-        take(&mut out, &mut events)
+        take(&mut pipeline, &mut out, &mut events)
     })?;
     pipeline.finish(&mut out);
     if pipeline.tau0().is_none() {
@@ -197,7 +199,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             args.input.display()
         );
     }
-    take(&mut out, &mut events)?;
+    take(&mut pipeline, &mut out, &mut events)?;
     printer.end(&pipeline, &events).context("writing output")?;
     if let Some(dir) = &args.out {
         write_figures(dir, &mut figures, &events, &crate::fit::title(&args.input))?;

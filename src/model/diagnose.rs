@@ -898,15 +898,16 @@ fn time_test<'a>(
         Signature::MeanStep => {
             let scan = timedomain::step_scan(series, w.noise())?;
             let mut test = Test::by_p(scan.t2, scan.p_value, |t2| scan.p_at(t2));
-            // The scan's best contrast is a step only if the whole record resolves one there:
-            // its GLS size at the scan's time at least 2σ (`step_size`; the suggestion reports
-            // that size at the estimator's time, `find_step`'s, the same for a real step). For
-            // a real step the two tests agree; they part where the scan's block noise model
-            // does not hold — a rate explained exactly by a regression left rounding noise, and
-            // the scan named a step of 3.7·10⁻²⁰ ± 5·10⁻¹⁹ rad/s.
+            // The scan's best contrast is a step only if the whole record resolves the step the
+            // suggestion reports: its GLS size (`step_size`) at the estimator's time
+            // (`find_step`'s, where the suggestion places the step; the scan's for a real step)
+            // at least 2σ. For a real step the two tests agree; they part where the scan's block
+            // noise model does not hold — a rate explained exactly by a regression left rounding
+            // noise, and the scan named a step of 3.7·10⁻²⁰ ± 5·10⁻¹⁹ rad/s.
             if test.significant {
-                test.significant = timedomain::step_size(series, scan.index, w.noise())
-                    .is_some_and(|g| g.t2 >= RESOLVED_T2);
+                let at = est.values.first().map_or(scan.index, |t| (t / input.tau0).round() as usize);
+                test.significant =
+                    timedomain::step_size(series, at, w.noise()).is_some_and(|g| g.t2 >= RESOLVED_T2);
             }
             plain(test)
         }

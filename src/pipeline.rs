@@ -477,8 +477,8 @@ impl Pipeline {
     /// Hands back a row this pipeline made once its points are no longer needed: the next rows
     /// of that axis reuse their memory ([`DavarEngine::recycle`]).
     pub fn recycle(&mut self, row: AxisRow) {
-        if let Some(state) = self.running.as_mut().and_then(|r| r.axes.iter_mut().find(|a| a.axis == row.axis)) {
-            state.engine.recycle(row.row);
+        if let Some(engine) = self.engine_of(row.axis) {
+            engine.recycle(row.row);
         }
     }
 
@@ -489,14 +489,18 @@ impl Pipeline {
     /// `fdavar analyze`'s CPU (`perf record --call-graph dwarf`). Here only each row's variance
     /// vector moves.
     pub fn recycle_all(&mut self, rows: &mut Vec<AxisRow>) {
-        if let Some(running) = self.running.as_mut() {
-            for row in rows.iter_mut() {
-                if let Some(state) = running.axes.iter_mut().find(|a| a.axis == row.axis) {
-                    state.engine.recycle_avars(std::mem::take(&mut row.row.avars));
-                }
+        for row in rows.iter_mut() {
+            if let Some(engine) = self.engine_of(row.axis) {
+                engine.recycle_avars(std::mem::take(&mut row.row.avars));
             }
         }
         rows.clear();
+    }
+
+    /// The engine of `axis`, once the pipeline runs.
+    fn engine_of(&mut self, axis: Axis) -> Option<&mut DavarEngine> {
+        let running = self.running.as_mut()?;
+        running.axes.iter_mut().find(|a| a.axis == axis).map(|a| &mut a.engine)
     }
 
     /// Ends the input: flushes held samples (estimating τ0 from them if needed) and closes open

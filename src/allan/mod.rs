@@ -21,8 +21,10 @@ mod rate;
 pub mod streaming;
 
 pub use grid::{TauGrid, TauGridError};
-pub use rate::{oavar_rate, oavar_rate_bridged, oavar_rate_bridged_in, oavar_rate_counted, RatePoint, BRIDGE_MAX_MISSING};
-pub(crate) use rate::oavar_rate_bridged_side_by_side;
+pub use rate::{
+    oavar_rate, oavar_rate_bridged, oavar_rate_bridged_in, oavar_rate_bridged_variances_in, oavar_rate_counted, RatePoint,
+    BRIDGE_MAX_MISSING,
+};
 
 use serde::{Deserialize, Serialize};
 use std::fmt;

@@ -69,7 +69,7 @@ pub fn oavar_rate(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<AllanPoint>
 /// assert_eq!((p[0].point.terms, p[0].skipped), (5, 2));
 /// ```
 pub fn oavar_rate_counted(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<RatePoint> {
-    rate_points(rate, tau0, factors, false, &mut Vec::new())
+    rate_points(rate, tau0, factors, false, Confidence::Identified, &mut Vec::new())
 }
 
 /// Most a bridged half of a term may miss, as a fraction of its m samples.
@@ -124,31 +124,31 @@ pub fn oavar_rate_bridged(rate: &[f64], tau0: f64, factors: &[usize]) -> Vec<Rat
 /// fresh pages from the kernel, zeroed and faulted in, for every one of them (in the node,
 /// buffers of a series' size get mappings of their own: `analysis::return_large_buffers_to_kernel`).
 pub fn oavar_rate_bridged_in(rate: &[f64], tau0: f64, factors: &[usize], phase: &mut Vec<f64>) -> Vec<RatePoint> {
-    rate_points(rate, tau0, factors, true, phase)
+    rate_points(rate, tau0, factors, true, Confidence::Identified, phase)
 }
 
-/// The points of [`oavar_rate_counted`] (`bridge` false) or [`oavar_rate_bridged`], the phase
-/// built in `x`.
-fn rate_points(rate: &[f64], tau0: f64, factors: &[usize], bridge: bool, x: &mut Vec<f64>) -> Vec<RatePoint> {
-    rate_points_side_by_side(&[rate], tau0, &[factors], bridge, std::slice::from_mut(x))
-        .pop()
-        .unwrap_or_default()
-}
-
-/// [`oavar_rate_bridged_in`] of several records (each with its factors and phase buffer), the
-/// same points as one after the other, bit for bit.
+/// [`oavar_rate_bridged_in`] without the noise identification: σ² and its count of terms, with
+/// `edf`, `ci_low` and `ci_high` NaN and no `alpha`.
 ///
-/// Why: the noise identification of each point is a few chains of dependent additions over the
-/// decimated record; the records' identifications at one factor run side by side
-/// ([`noise_id::identify_each`]), so records of equal length (the spans of the fit's check)
-/// keep several chains in flight.
-pub(crate) fn oavar_rate_bridged_side_by_side(
-    rates: &[&[f64]],
-    tau0: f64,
-    factors: &[&[usize]],
-    phases: &mut [Vec<f64>],
-) -> Vec<Vec<RatePoint>> {
-    rate_points_side_by_side(rates, tau0, factors, true, phases)
+/// Use it where the EDF of each τ comes from elsewhere: the fit weighs each τ by the EDF of its
+/// model's noise mix ([`crate::model::measure::edf_for_mix`]), never by the noise identified in
+/// the data.
+///
+/// Why: identifying the noise type at every τ (lag-1 autocorrelation passes over the decimated
+/// record), Greenhall's EDF and the χ² interval cost the fit more than the variances themselves,
+/// for the record and each of its spans, on numbers nothing read (docs/performance.md has the
+/// measured share).
+pub fn oavar_rate_bridged_variances_in(rate: &[f64], tau0: f64, factors: &[usize], phase: &mut Vec<f64>) -> Vec<RatePoint> {
+    rate_points(rate, tau0, factors, true, Confidence::Skipped, phase)
+}
+
+/// What a measurement works out beyond σ² and its count of terms.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Confidence {
+    /// The noise type at each τ, Greenhall's EDF for it and the 68.3 % interval.
+    Identified,
+    /// Nothing: `edf`, `ci_low` and `ci_high` NaN, `alpha` None.
+    Skipped,
 }
 
 /// A record's strict or bridged sums ([`rate_sums`]).
@@ -159,76 +159,75 @@ struct RecordSums {
     sums: Vec<(usize, Terms, bool)>,
 }
 
-/// The points of `rates[r]` at `factors[r]`, the phase of record r built in `phases[r]`.
-fn rate_points_side_by_side(
-    rates: &[&[f64]],
+/// The points of [`oavar_rate_counted`] (`bridge` false) or [`oavar_rate_bridged`], the phase
+/// built in `x`.
+fn rate_points(
+    rate: &[f64],
     tau0: f64,
-    factors: &[&[usize]],
+    factors: &[usize],
     bridge: bool,
-    phases: &mut [Vec<f64>],
-) -> Vec<Vec<RatePoint>> {
+    confidence: Confidence,
+    x: &mut Vec<f64>,
+) -> Vec<RatePoint> {
     if !(tau0.is_finite() && tau0 > 0.0) {
-        return vec![Vec::new(); rates.len()];
+        return Vec::new();
     }
-    let records: Vec<Option<RecordSums>> = rates
-        .iter()
-        .zip(factors)
-        .zip(phases.iter_mut())
-        .map(|((rate, factors), x)| rate_sums(rate, tau0, factors, bridge, x))
-        .collect();
+    let Some(record) = rate_sums(rate, tau0, factors, bridge, x) else {
+        return Vec::new();
+    };
     let shape = Estimator::Oadev.shape();
-    // One job per point with terms, the records' jobs at the i-th usable factor next to each
-    // other (about equal lengths: see `identify_each`).
-    let mut jobs = Vec::new();
-    let mut at = Vec::new();
-    let longest = records.iter().flatten().map(|r| r.sums.len()).max().unwrap_or(0);
-    for i in 0..longest {
-        for (r, record) in records.iter().enumerate() {
-            let Some(record) = record else { continue };
-            if let Some(&(m, Terms { terms, .. }, _)) = record.sums.get(i).filter(|s| s.1.terms > 0) {
-                let x = record.joined.as_deref().unwrap_or(&phases[r]);
-                jobs.push(noise_id::IdJob { x, m, terms });
-                at.push((r, i));
-            }
+    let mut alphas = vec![None; record.sums.len()];
+    if confidence == Confidence::Identified {
+        // One job per factor with terms, neighbouring factors side by side (`identify_each`).
+        let phase = record.joined.as_deref().unwrap_or(x);
+        let (at, jobs): (Vec<usize>, Vec<noise_id::IdJob>) = record
+            .sums
+            .iter()
+            .enumerate()
+            .filter(|(_, &(_, Terms { terms, .. }, _))| terms > 0)
+            .map(|(i, &(m, Terms { terms, .. }, _))| (i, noise_id::IdJob { x: phase, m, terms }))
+            .unzip();
+        for (i, id) in at.into_iter().zip(noise_id::identify_each(&jobs, shape.d)) {
+            alphas[i] = id.map(|(a, _)| a);
         }
     }
-    let mut alphas: Vec<Vec<Option<i32>>> = records.iter().map(|r| vec![None; r.as_ref().map_or(0, |r| r.sums.len())]).collect();
-    for ((r, i), id) in at.into_iter().zip(noise_id::identify_each(&jobs, shape.d)) {
-        alphas[r][i] = id.map(|(a, _)| a);
-    }
-    records
+    record
+        .sums
         .into_iter()
         .zip(alphas)
-        .map(|(record, alphas)| {
-            let Some(record) = record else { return Vec::new() };
-            record
-                .sums
-                .into_iter()
-                .zip(alphas)
-                .filter_map(|((m, Terms { sum, terms, skipped }, bridged), alpha)| {
-                    if terms == 0 {
-                        return None;
-                    }
-                    let tau = m as f64 * tau0;
-                    let avar = sum / (2.0 * tau * tau * terms as f64);
-                    let point = with_confidence(
-                        m,
-                        tau,
-                        avar,
-                        terms,
-                        alpha.unwrap_or(0),
-                        shape,
-                        terms + 2 * m,
-                        super::edf::ONE_SIGMA,
-                    );
-                    Some(RatePoint {
-                        point,
-                        skipped,
-                        alpha,
-                        bridged,
-                    })
-                })
-                .collect()
+        .filter_map(|((m, Terms { sum, terms, skipped }, bridged), alpha)| {
+            if terms == 0 {
+                return None;
+            }
+            let tau = m as f64 * tau0;
+            let avar = sum / (2.0 * tau * tau * terms as f64);
+            let point = match confidence {
+                Confidence::Identified => with_confidence(
+                    m,
+                    tau,
+                    avar,
+                    terms,
+                    alpha.unwrap_or(0),
+                    shape,
+                    terms + 2 * m,
+                    super::edf::ONE_SIGMA,
+                ),
+                Confidence::Skipped => AllanPoint {
+                    m,
+                    tau,
+                    avar,
+                    terms,
+                    edf: f64::NAN,
+                    ci_low: f64::NAN,
+                    ci_high: f64::NAN,
+                },
+            };
+            Some(RatePoint {
+                point,
+                skipped,
+                alpha,
+                bridged,
+            })
         })
         .collect()
 }
@@ -555,22 +554,21 @@ mod tests {
     }
 
     proptest! {
-        // Records side by side (spans of unequal length, with holes or without, one all NaN)
-        // give each record's own points, bit for bit.
+        // Without the noise identification, the variances are those of the full measurement,
+        // bit for bit (with holes, bridged or not), and nothing else is made up.
         #[test]
-        fn side_by_side_equals_one_by_one(y in prop::collection::vec(-10f64..10.0, 300..900), holes in prop::collection::vec(0usize..900, 0..6), cuts in prop::collection::vec((0usize..900, 100usize..500), 1..6)) {
+        fn variances_alone_equal_the_full_measurement(y in prop::collection::vec(-10f64..10.0, 300..900), holes in prop::collection::vec(0usize..900, 0..6)) {
             let mut y = y;
             let n = y.len();
             for h in &holes { y[h % n] = f64::NAN; }
-            let nan = [f64::NAN; 50];
-            let mut rates: Vec<&[f64]> = cuts.iter().map(|&(a, len)| &y[a % n..(a % n + len).min(n)]).collect();
-            rates.push(&nan);
-            let factors: Vec<Vec<usize>> = rates.iter().map(|r| TauGrid::default().factors((r.len() / 3).max(1))).collect();
-            let factor_refs: Vec<&[usize]> = factors.iter().map(Vec::as_slice).collect();
-            let mut phases = vec![vec![f64::NAN; 3]; rates.len()];
-            let got = oavar_rate_bridged_side_by_side(&rates, 0.01, &factor_refs, &mut phases);
-            for ((rate, factors), got) in rates.iter().zip(&factors).zip(got) {
-                prop_assert_eq!(got, oavar_rate_bridged(rate, 0.01, factors));
+            let factors = TauGrid::default().factors(n / 3);
+            let full = oavar_rate_bridged(&y, 0.01, &factors);
+            let alone = oavar_rate_bridged_variances_in(&y, 0.01, &factors, &mut vec![f64::NAN; 3]);
+            prop_assert_eq!(alone.len(), full.len());
+            for (a, f) in alone.iter().zip(&full) {
+                prop_assert_eq!((a.point.m, a.point.tau.to_bits(), a.point.avar.to_bits(), a.point.terms), (f.point.m, f.point.tau.to_bits(), f.point.avar.to_bits(), f.point.terms));
+                prop_assert_eq!((a.skipped, a.bridged), (f.skipped, f.bridged));
+                prop_assert!(a.alpha.is_none() && a.point.edf.is_nan() && a.point.ci_low.is_nan() && a.point.ci_high.is_nan());
             }
         }
     }

@@ -319,12 +319,18 @@ impl NoiseSpectrum {
 
     /// One-sided PSD of the rate at `f` Hz (0 < f ≤ 1/(2τ0)).
     pub fn rate_psd(&self, f: f64) -> f64 {
+        self.rate_psd_with_gain(f, || self.difference_gain(f))
+    }
+
+    /// [`NoiseSpectrum::rate_psd`] with the difference gain at `f` given (white PM's rate is the
+    /// difference of a white phase).
+    fn rate_psd_with_gain(&self, f: f64, gain: impl Fn() -> f64) -> f64 {
         let tau0 = self.tau0;
         let pi = std::f64::consts::PI;
         self.parts
             .iter()
             .map(|&(class, a)| match class {
-                NoiseClass::WhitePm => 2.0 * a * (2.0 * (pi * f * tau0).sin()).powi(2) / tau0,
+                NoiseClass::WhitePm => 2.0 * a * gain() / tau0,
                 NoiseClass::WhiteFm => 2.0 * a,
                 NoiseClass::FlickerFm => a / (2.0 * std::f64::consts::LN_2) / f,
                 NoiseClass::RandomWalkFm => 3.0 * a / (2.0 * pi * pi) / (f * f),
@@ -335,6 +341,17 @@ impl NoiseSpectrum {
     /// One-sided PSD of the rate's first differences, (2 sin πfτ0)²·S(f), at `f` Hz (its limit at
     /// f = 0: zero but for a random walk, whose differences are white).
     pub fn diff_psd(&self, f: f64) -> f64 {
+        self.diff_psd_with_gain(f, self.difference_gain(f))
+    }
+
+    /// (2 sin πfτ0)²: the power gain of a first difference at `f` Hz.
+    pub fn difference_gain(&self, f: f64) -> f64 {
+        (2.0 * (std::f64::consts::PI * f * self.tau0).sin()).powi(2)
+    }
+
+    /// [`NoiseSpectrum::diff_psd`] with the gain at `f` ([`NoiseSpectrum::difference_gain`])
+    /// given: the same number, without its sine.
+    fn diff_psd_with_gain(&self, f: f64, gain: f64) -> f64 {
         if f <= 0.0 {
             let tau0 = self.tau0;
             return self
@@ -344,7 +361,7 @@ impl NoiseSpectrum {
                 .map(|&(_, a)| 6.0 * a * tau0 * tau0)
                 .sum();
         }
-        (2.0 * (std::f64::consts::PI * f * self.tau0).sin()).powi(2) * self.rate_psd(f)
+        gain * self.rate_psd_with_gain(f, || gain)
     }
 
     /// Variance of the mean rate over the B = `b_s` seconds following a time minus that over the
@@ -483,6 +500,9 @@ pub struct Whitened {
     spectrum: Arc<Vec<Complex<f64>>>,
     /// s_m of the formula, m = 0 … ⌈n/2⌉.
     untapered: Vec<f64>,
+    /// The difference gain at each s_m's frequency ([`DifferenceGains`]): shared by the weightings
+    /// of one series, and by the axes of a record.
+    gains: DifferenceGains,
 }
 
 impl std::fmt::Debug for Whitened {
@@ -507,13 +527,19 @@ impl Whitened {
         let skip = y.len() - 1 - len;
         let plan = plans.forward(len);
         let spectrum = Arc::new(tapered_diff_dft(&y[skip..], &plan));
-        Self::weighted(skip, len, plan, spectrum, noise)
+        let gains = plans.difference_gains(len, noise.tau0);
+        Self::weighted(skip, len, plan, spectrum, gains, noise)
     }
 
     /// The same series weighted by another base noise: what [`Whitened::new`] gives on the same
     /// `y`, without transforming it again.
     pub fn with_noise(&self, noise: &NoiseSpectrum) -> Option<Self> {
-        Self::weighted(self.skip, self.len, self.plan.clone(), Arc::clone(&self.spectrum), noise)
+        let gains = if self.gains.tau0.to_bits() == noise.tau0.to_bits() {
+            self.gains.clone()
+        } else {
+            DifferenceGains::new(self.len, noise.tau0)
+        };
+        Self::weighted(self.skip, self.len, self.plan.clone(), Arc::clone(&self.spectrum), gains, noise)
     }
 
     fn weighted(
@@ -521,15 +547,23 @@ impl Whitened {
         len: usize,
         plan: Plan,
         spectrum: Arc<Vec<Complex<f64>>>,
+        gains: DifferenceGains,
         noise: &NoiseSpectrum,
     ) -> Option<Self> {
-        let untapered: Vec<f64> = (0..=spectrum.len())
-            .map(|m| len as f64 * noise.diff_psd(m as f64 / (len as f64 * noise.tau0)) / (2.0 * noise.tau0))
+        debug_assert_eq!(gains.at.len(), spectrum.len() + 1);
+        let untapered: Vec<f64> = gains
+            .at
+            .iter()
+            .enumerate()
+            .map(|(m, &gain)| {
+                let f = DifferenceGains::frequency(m, len, noise.tau0);
+                len as f64 * noise.diff_psd_with_gain(f, gain) / (2.0 * noise.tau0)
+            })
             .collect();
         if untapered.iter().skip(1).any(|s| !(s.is_finite() && *s > 0.0)) {
             return None;
         }
-        Some(Whitened { noise: noise.clone(), skip, len, plan, spectrum, untapered })
+        Some(Whitened { noise: noise.clone(), skip, len, plan, spectrum, untapered, gains })
     }
 
     /// The base noise the series is weighted by.
@@ -874,6 +908,8 @@ pub struct Plans(Mutex<Made>);
 struct Made {
     planner: RealFftPlanner<f64>,
     tapers: HashMap<usize, Arc<[f64]>>,
+    /// By length and τ0's bits.
+    gains: HashMap<(usize, u64), DifferenceGains>,
 }
 
 impl Default for Plans {
@@ -890,6 +926,32 @@ pub struct Plan {
     taper: Arc<[f64]>,
 }
 
+/// (2 sin πf_mτ0)², the power gain of a first difference, at the frequencies f_m = m/(nτ0) of a
+/// transform of n differences, m = 0 … ⌊n/2⌋ + 1 (one past its last bin: the weighting's s_m reach
+/// it, [`Whitened::cov`]) ([`NoiseSpectrum::difference_gain`]).
+///
+/// Why kept: a weighting ([`Whitened`]) needs one per frequency, and a sine per point was most of
+/// a weighting's cost; the diagnosis weights one series several times (each candidate's noise),
+/// and every axis of a record has the same n and τ0. The same numbers as a sine each time.
+#[derive(Clone)]
+struct DifferenceGains {
+    tau0: f64,
+    at: Arc<[f64]>,
+}
+
+impl DifferenceGains {
+    fn new(len: usize, tau0: f64) -> DifferenceGains {
+        let unit = NoiseSpectrum { tau0, parts: Vec::new() };
+        let at = (0..=len / 2 + 1).map(|m| unit.difference_gain(Self::frequency(m, len, tau0))).collect();
+        DifferenceGains { tau0, at }
+    }
+
+    /// f_m, Hz.
+    fn frequency(m: usize, len: usize, tau0: f64) -> f64 {
+        m as f64 / (len as f64 * tau0)
+    }
+}
+
 impl std::fmt::Debug for Plans {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Plans").finish_non_exhaustive()
@@ -901,13 +963,20 @@ impl Plans {
     pub fn forward(&self, len: usize) -> Plan {
         // A planner is left consistent by a panic elsewhere: its caches only ever gain entries.
         let mut made = self.0.lock().unwrap_or_else(PoisonError::into_inner);
-        let Made { planner, tapers } = &mut *made;
+        let Made { planner, tapers, .. } = &mut *made;
         let taper = tapers.entry(len).or_insert_with(|| {
             (0..len)
                 .map(|j| (std::f64::consts::PI * (j as f64 + 0.5) / len as f64).sin().powi(2))
                 .collect()
         });
         Plan { taper: Arc::clone(taper), fft: planner.plan_fft_forward(len) }
+    }
+
+    /// The difference gains of a transform of `len` differences sampled every `tau0` s (made
+    /// once per length and period).
+    fn difference_gains(&self, len: usize, tau0: f64) -> DifferenceGains {
+        let mut made = self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        made.gains.entry((len, tau0.to_bits())).or_insert_with(|| DifferenceGains::new(len, tau0)).clone()
     }
 
     /// The forward real-to-complex transform of `len` points alone (made once per length), for a

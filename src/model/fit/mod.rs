@@ -55,8 +55,7 @@ pub use types::{
     AxisInput, Event, FitError, FitOptions, FitPoint, FittedModel, FittedTerm, ParamValue, Span,
 };
 
-use crate::allan::oavar_rate_bridged_in;
-use crate::allan::AllanPoint;
+use crate::allan::{oavar_rate_bridged_variances_in, AllanPoint};
 use crate::model::effects::{unit_on_axis, Domain, EffectKind};
 use crate::model::measure::NoiseClass;
 use crate::model::spec::ModelSpec;
@@ -85,11 +84,12 @@ pub fn fit(
     prepared.fit_spectral(spec, &prepared.spectral_kinds, opts)
 }
 
-/// The Allan variance the fit reads: [`oavar_rate_bridged`], so that a record losing a message
-/// every few seconds keeps its long τ; with the factors that were bridged. `phase` is scratch
-/// ([`oavar_rate_bridged_in`]).
+/// The Allan variance the fit reads: [`crate::allan::oavar_rate_bridged`], so that a record losing a message
+/// every few seconds keeps its long τ; with the factors that were bridged. `phase` is scratch.
+/// σ² and terms only ([`oavar_rate_bridged_variances_in`]): the fit takes each τ's EDF from its
+/// model's noise mix.
 fn measure(series: &[f64], tau0: f64, factors: &[usize], phase: &mut Vec<f64>) -> (Vec<AllanPoint>, Vec<usize>) {
-    let points = oavar_rate_bridged_in(series, tau0, factors, phase);
+    let points = oavar_rate_bridged_variances_in(series, tau0, factors, phase);
     let bridged = points.iter().filter(|p| p.bridged).map(|p| p.point.m).collect();
     (points.into_iter().map(|p| p.point).collect(), bridged)
 }
@@ -123,7 +123,8 @@ fn noise_of(
 #[derive(Clone)]
 pub struct Prepared {
     axis: Axis,
-    /// The measured Allan variance of the cleaned series.
+    /// The measured Allan variance of the cleaned series: σ² and terms, no EDF or interval
+    /// (NaN; the fit's come from the model, [`crate::model::measure::edf_for_mix`]).
     pub points: Vec<AllanPoint>,
     /// The factors of `points` measured across missing samples.
     bridged: Vec<usize>,

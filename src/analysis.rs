@@ -339,6 +339,12 @@ impl Analysis {
         self.record = Some(record);
     }
 
+    /// Values per axis in the whole-run record (0 while it is lent, or before the period is
+    /// known).
+    pub fn record_len(&self) -> usize {
+        self.record.as_ref().map_or(0, RecordBuilder::values)
+    }
+
     /// Inputs waiting for the lent record to come back (0 while it is here).
     pub fn deferred(&self) -> usize {
         self.deferred.len()

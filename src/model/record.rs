@@ -165,6 +165,11 @@ impl RecordBuilder {
         self.max_samples
     }
 
+    /// Values per axis in the record so far (0 until the period is known).
+    pub fn values(&self) -> usize {
+        self.record.as_ref().map_or(0, Recording::len)
+    }
+
     /// Feeds one IMU sample (in the order received).
     pub fn push(&mut self, sample: &ImuSample) {
         let mut placed = std::mem::take(&mut self.scratch);

@@ -146,6 +146,10 @@ impl RowEngine for AnalysisEngine {
         }
     }
 
+    fn record_len(&self) -> usize {
+        self.analysis.record_len()
+    }
+
     fn can_take(&self) -> bool {
         self.analysis.deferred() < DEFERRED_CAP
     }

@@ -58,6 +58,11 @@ pub trait RowEngine: Send {
     }
     /// Takes back what [`RowEngine::lend`] lent.
     fn give_back(&mut self, _lent: Box<dyn Lent>) {}
+    /// Values per axis in the whole-run record a diagnosis would be lent now (0: unknown); what
+    /// a diagnosis costs is in proportion to it.
+    fn record_len(&self) -> usize {
+        0
+    }
     /// False while the engine holds as many inputs for a lent diagnosis as it may (the caller
     /// then keeps the input until [`RowEngine::give_back`]).
     fn can_take(&self) -> bool {
@@ -82,6 +87,8 @@ pub trait Lent: Send {
 pub struct DiagnosisJob {
     axis: Axis,
     lent: Box<dyn Lent>,
+    /// The record's length when lent ([`RowEngine::record_len`]).
+    values: usize,
     /// The monitor's [`Monitor::generation`] when it started.
     generation: u64,
 }
@@ -89,6 +96,7 @@ pub struct DiagnosisJob {
 /// A diagnosis run: its answer, what it cost, and what goes back to the engine.
 pub struct DiagnosisDone {
     axis: Axis,
+    values: usize,
     /// `None` after a panic (what it held is not to be trusted).
     lent: Option<Box<dyn Lent>>,
     /// The answer, or the message of the panic the diagnosis raised.
@@ -107,6 +115,7 @@ impl DiagnosisJob {
             .map_err(panic_message);
         DiagnosisDone {
             axis: self.axis,
+            values: self.values,
             lent: answer.is_ok().then_some(self.lent),
             answer,
             cost_s: start.elapsed().as_secs_f64(),
@@ -232,11 +241,11 @@ pub struct MonitorSettings {
     pub fit_error_warn: f64,
     /// Seconds of node time between two diagnoses of each axis (0: no diagnosis).
     pub diagnosis_period_s: f64,
-    /// The largest share of one core the diagnosis may take, averaged over a diagnosis and the
-    /// rest after it: a diagnosis (of one axis) that took C seconds starts the next no sooner
-    /// than C/share seconds (wall clock) after its own start. 1: only `diagnosis_period_s` and
-    /// the publications pace them. Default 0.005: docs/ros.md ("The diagnosis has a CPU
-    /// budget") says why, and how old an answer gets.
+    /// The largest share of one core the diagnosis may take, over any time from the start: a
+    /// diagnosis (of one axis) expected to cost C seconds starts once the share has earned C
+    /// (wall clock) since what the diagnoses before it spent ([`Monitor::start_diagnosis`]).
+    /// 1: only `diagnosis_period_s` and the publications pace them. Default 0.005:
+    /// docs/ros.md ("The diagnosis has a CPU budget") says why, and how old an answer gets.
     pub diagnosis_cpu_share: f64,
 }
 
@@ -293,9 +302,12 @@ pub struct Monitor {
     generation: u64,
     /// Axes of the current round still to diagnose (one per publication).
     diagnosis_due: Vec<Axis>,
-    /// When the latest diagnosis ended (wall clock) and what it cost, s: with
-    /// [`MonitorSettings::diagnosis_cpu_share`], when the next may start.
-    last_cost: Option<(std::time::Instant, f64)>,
+    /// Diagnosis time the CPU share has earned and the diagnoses not spent, s, as of an instant
+    /// (negative: the last cost more than was earned); `None`: the next starts whatever it costs.
+    credit: Option<(std::time::Instant, f64)>,
+    /// Per axis, the latest diagnosis's cost, s, and the length of the record it ran on (what
+    /// the next is expected to cost: [`Monitor::expected_cost`]).
+    cost_of: [Option<(f64, usize)>; 6],
     /// The counters at the last publication (the dropped share is of what came since).
     reported: Counters,
     /// Why the engine stopped: the message of the panic it raised. From then on every axis
@@ -330,7 +342,8 @@ impl Monitor {
             in_flight: false,
             generation: 0,
             diagnosis_due: Vec::new(),
-            last_cost: None,
+            credit: None,
+            cost_of: [None; 6],
             reported: Counters::default(),
             engine_failure: None,
         }
@@ -407,7 +420,7 @@ impl Monitor {
             // its first axis whatever the budget: the user asked for it).
             self.last_diagnosis_ns = None;
             self.diagnosis_due.clear();
-            self.last_cost = None;
+            self.credit = None;
             self.generation += 1;
         }
         Ok(())
@@ -423,26 +436,23 @@ impl Monitor {
     /// its cap of 2²¹ values per axis (about 0.73 s per axis there, measured: `fdavar diagnose
     /// --jobs 1` of 2·10⁶ samples, 5.2 s of CPU, 0.8 s of it reading the bag); six of them every
     /// 10 s would take 45 % of a core once the record is full (after 5.8 h at 100 Hz, 17 min at
-    /// 2 kHz). So a diagnosis that cost C seconds lets the next start no sooner than
-    /// C/`diagnosis_cpu_share` after its own start: one per publication and a round per period
-    /// while the record is short, further apart as it grows.
+    /// 2 kHz). So the diagnoses spend a credit that `diagnosis_cpu_share` earns by the second of
+    /// wall clock: one expected to cost C (the latest of its axis, scaled by the record's
+    /// growth) starts once the credit holds C, and what it really cost is taken off when it
+    /// ends. One per publication and a round per period while the record is short, further
+    /// apart as it grows.
     ///
-    /// Why each diagnosis, not each round, earns its rest: paced by rounds, six diagnoses ran
-    /// back to back and their rest came after, so any window shorter than that rest that ended
-    /// past a round saw the round's whole cost (the diagnosis thread took 1.5 % of a core over
-    /// 180 s at 2 kHz with a budget of 1 %, measured with `cargo bench --bench node_load -- 2000
-    /// 180`); paced by diagnoses, a window sees at most one diagnosis beyond the share.
+    /// Why the credit is earned before it is spent: a diagnosis followed by a rest of its cost
+    /// over the share (as before) spent first, so that a window ending after a diagnosis and
+    /// before its rest was over saw that diagnosis beyond the share: 0.72 % of a core over 120 s
+    /// at 2 kHz with a share of 0.5 % (`cargo bench --bench node_load -- 2000 120`, the latest
+    /// diagnosis 0.32 s). Earned first, the share holds over any time from the start, but for
+    /// the error of the expectation (and a first diagnosis of a short record, which starts at
+    /// once). No more than one diagnosis's worth is kept: a node whose diagnosis was off for an
+    /// hour does not then run a burst of them.
     pub fn start_diagnosis(&mut self, now_ns: i64) -> Option<DiagnosisJob> {
         let period = self.settings.diagnosis_period_s;
         if self.engine.is_none() || period <= 0.0 || self.in_flight {
-            return None;
-        }
-        // Its rest: C/share from its start is C·(1/share − 1) from its end.
-        let share = self.settings.diagnosis_cpu_share;
-        let rested = self.last_cost.is_none_or(|(ended, cost)| {
-            ended.elapsed().as_secs_f64() >= cost * (1.0 / share - 1.0)
-        });
-        if !rested {
             return None;
         }
         // Due after a period, at start, and when the node's time went backwards (sim time reset).
@@ -456,19 +466,54 @@ impl Monitor {
             self.diagnosis_due = Axis::ALL.iter().rev().copied().collect();
         }
         // Axes still without a row sit this round out.
-        let mut job = None;
-        while let Some(axis) = self.diagnosis_due.pop() {
-            if self.has_row(axis) {
-                job = self.supervised(|e| e.lend(axis)).flatten().map(|lent| DiagnosisJob {
-                    axis,
-                    lent,
-                    generation: self.generation,
-                });
-                break;
-            }
+        while self.diagnosis_due.last().is_some_and(|&axis| !self.has_row(axis)) {
+            self.diagnosis_due.pop();
+        }
+        let &axis = self.diagnosis_due.last()?;
+        let values = self.engine.as_ref().map_or(0, |e| e.record_len());
+        let expected = self.expected_cost(axis, values);
+        let now = std::time::Instant::now();
+        let share = self.settings.diagnosis_cpu_share;
+        let credit = self
+            .credit
+            .map_or(expected, |(at, credit)| credit + share * now.duration_since(at).as_secs_f64());
+        // A share of 1 is no budget: only the period and the publications pace the diagnoses.
+        if share < 1.0 && credit < expected {
+            return None;
+        }
+        self.diagnosis_due.pop();
+        let job = self.supervised(|e| e.lend(axis)).flatten().map(|lent| DiagnosisJob {
+            axis,
+            lent,
+            values,
+            generation: self.generation,
+        });
+        if job.is_some() {
+            self.credit = Some((now, credit.min(expected)));
         }
         self.in_flight = job.is_some();
         job
+    }
+
+    /// What a diagnosis of `axis` on a record of `values` values per axis is expected to cost,
+    /// s: the latest of that axis (else the costliest of any axis), scaled by how much the record
+    /// grew since, at most twice; 0 before any.
+    ///
+    /// Why at most twice: a diagnosis costs in proportion to the record above a fixed part; from
+    /// the first diagnosis, of a record of a few hundred values, the proportion alone expected
+    /// seconds for the next and starved the diagnosis (0.03 % of a core over 120 s at 2 kHz). A
+    /// record grows at most twofold between two rounds once it is a period long.
+    fn expected_cost(&self, axis: Axis, values: usize) -> f64 {
+        let latest = self.cost_of[axis.index()].or_else(|| {
+            self.cost_of.iter().flatten().copied().max_by(|a, b| a.0.total_cmp(&b.0))
+        });
+        latest.map_or(0.0, |(cost, on)| {
+            if on > 0 && values > 0 {
+                cost * (values as f64 / on as f64).min(2.0)
+            } else {
+                cost
+            }
+        })
     }
 
     /// Takes back a diagnosis [`Monitor::start_diagnosis`] lent out: what it held goes back to
@@ -477,7 +522,12 @@ impl Monitor {
     pub fn finish_diagnosis(&mut self, done: DiagnosisDone) {
         self.in_flight = false;
         // Spent whatever became of the answer.
-        self.last_cost = Some((std::time::Instant::now(), done.cost_s));
+        let now = std::time::Instant::now();
+        let share = self.settings.diagnosis_cpu_share;
+        self.credit = Some(self.credit.map_or((now, -done.cost_s), |(at, credit)| {
+            (now, credit + share * now.duration_since(at).as_secs_f64() - done.cost_s)
+        }));
+        self.cost_of[done.axis.index()] = Some((done.cost_s, done.values));
         let answer = match done.answer {
             Ok(answer) => answer,
             Err(why) => {

@@ -717,10 +717,35 @@ fn take_ready<M>(
 /// How the receive loop waits for IMU messages that come faster than one per `period`
 /// (`receive_batch_ms`).
 struct Batching {
-    /// The wait between two takes while messages come that fast; zero: woken by DDS for each.
+    /// How long the first message of a batch waits for its take while messages come that fast;
+    /// zero: woken by DDS for each.
     period: Duration,
     /// A take of this many messages or more is followed at once by the next.
     full: usize,
+}
+
+impl Batching {
+    /// The wait before the next take, at `now_ns`, when the latest message arrived at
+    /// `last_arrival_ns` (RustDDS's reception stamps, wall clock), `gap_ns` after the one before.
+    ///
+    /// The take is timed for the k messages due next, one gap apart, to have all arrived, a
+    /// quarter of a gap after the k-th is due (a message that late still makes its batch), with
+    /// k the most for which the first has waited no longer than `period` by then.
+    ///
+    /// Why from the arrivals rather than `period` after each take: a take at a fixed time after
+    /// the last found 1.7 messages on average at 2 kHz with 0.8 ms (1 170 wake-ups a second,
+    /// each a context switch), and a message could wait the whole period and the sleep's lateness
+    /// after it; timed just after the k-th arrival, each take finds k = 2 and the first has
+    /// waited one gap and a quarter (0.63 ms). A stamp that is not where the clock says (a step
+    /// of the wall clock) waits at most the k gaps and the quarter.
+    fn wait(&self, last_arrival_ns: i64, gap_ns: i64, now_ns: i64) -> Duration {
+        let (period_ns, gap_ns) = (self.period.as_nanos() as i64, gap_ns.max(1));
+        let late_ns = gap_ns / 4;
+        let k = 1 + (period_ns - late_ns).max(0) / gap_ns;
+        let ahead_ns = k.saturating_mul(gap_ns).saturating_add(late_ns);
+        let due_ns = last_arrival_ns.saturating_add(ahead_ns);
+        Duration::from_nanos(due_ns.saturating_sub(now_ns).clamp(0, ahead_ns) as u64)
+    }
 }
 
 /// Takes messages off DDS and analyses or queues them ([`Shared::hand_over`]); never blocks on the
@@ -831,10 +856,10 @@ fn receive_loop(
             }
         }
         // (A negative gap is the wall clock stepping back: no evidence of a fast topic.)
-        if taken > 0 && (0..period_ns).contains(&last_gap_ns) {
+        if let (true, Some(last_ns)) = (taken > 0 && (0..period_ns).contains(&last_gap_ns), last_arrival_ns) {
             batching_now = true;
             if taken < batching.full {
-                std::thread::sleep(batching.period);
+                std::thread::sleep(batching.wait(last_ns, last_gap_ns, wall_ns()));
             }
             continue;
         }
@@ -1188,5 +1213,29 @@ impl Publishers {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_take_is_timed_just_after_the_last_message_its_first_may_wait_for() {
+        let batching = Batching { period: Duration::from_micros(800), full: 25 };
+        let us = 1_000;
+        // 2 kHz: the next two are due 500 and 1 000 µs after the latest, the first may wait
+        // 800 µs: the take comes a quarter gap after the second, 1 125 µs after the latest
+        // (here taken 30 µs after it arrived).
+        assert_eq!(batching.wait(0, 500 * us, 30 * us), Duration::from_micros(1_095));
+        // 4 kHz: three (the first waits 2·250 + 62.5 µs).
+        assert_eq!(batching.wait(0, 250 * us, 0), Duration::from_nanos(812_500));
+        // 1.43 kHz: one, a quarter gap after it is due.
+        assert_eq!(batching.wait(0, 700 * us, 0), Duration::from_micros(875));
+        // Late (a slow take): what is left, down to nothing.
+        assert_eq!(batching.wait(0, 500 * us, 1_100 * us), Duration::from_micros(25));
+        assert_eq!(batching.wait(0, 500 * us, 2_000 * us), Duration::ZERO);
+        // A wall clock stepped back by a second: no longer than from the latest arrival.
+        assert_eq!(batching.wait(0, 500 * us, -1_000_000 * us), Duration::from_micros(1_125));
     }
 }

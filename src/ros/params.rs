@@ -132,11 +132,11 @@ pub static NODE_PARAMS: &[ParamSpec] = &[
     },
     ParamSpec {
         name: "receive_batch_ms",
-        doc: "While IMU messages come faster than one per this many ms, take them off DDS every \
-              this many ms, on a timer, instead of being woken by DDS for each one (at kHz rates \
-              the per-message wake-up was most of the node's CPU); such a message waits at most \
-              about this long before its update. Slower topics are taken as they come. 0 = wake \
-              for every message. [0, 10].",
+        doc: "While IMU messages come faster than one per this many ms, take them off DDS in \
+              batches, on a timer set from their arrivals, instead of being woken by DDS for each \
+              one (at kHz rates the per-message wake-up was most of the node's CPU); such a \
+              message waits at most about this long before its update. Slower topics are taken \
+              as they come. 0 = wake for every message. [0, 10].",
         default: || ParameterValue::Double(0.8),
         validate: |v| non_negative_double(v, 10.0),
         live: false,

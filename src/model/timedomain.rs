@@ -346,7 +346,7 @@ impl NoiseSpectrum {
 
     /// (2 sin πfτ0)²: the power gain of a first difference at `f` Hz.
     pub fn difference_gain(&self, f: f64) -> f64 {
-        (2.0 * (std::f64::consts::PI * f * self.tau0).sin()).powi(2)
+        difference_gain(f, self.tau0)
     }
 
     /// [`NoiseSpectrum::diff_psd`] with the gain at `f` ([`NoiseSpectrum::difference_gain`])
@@ -926,6 +926,11 @@ pub struct Plan {
     taper: Arc<[f64]>,
 }
 
+/// (2 sin πfτ0)²: the power gain at `f` Hz of a first difference of samples `tau0` s apart.
+fn difference_gain(f: f64, tau0: f64) -> f64 {
+    (2.0 * (std::f64::consts::PI * f * tau0).sin()).powi(2)
+}
+
 /// (2 sin πf_mτ0)², the power gain of a first difference, at the frequencies f_m = m/(nτ0) of a
 /// transform of n differences, m = 0 … ⌊n/2⌋ + 1 (one past its last bin: the weighting's s_m reach
 /// it, [`Whitened::cov`]) ([`NoiseSpectrum::difference_gain`]).
@@ -941,8 +946,7 @@ struct DifferenceGains {
 
 impl DifferenceGains {
     fn new(len: usize, tau0: f64) -> DifferenceGains {
-        let unit = NoiseSpectrum { tau0, parts: Vec::new() };
-        let at = (0..=len / 2 + 1).map(|m| unit.difference_gain(Self::frequency(m, len, tau0))).collect();
+        let at = (0..=len / 2 + 1).map(|m| difference_gain(Self::frequency(m, len, tau0), tau0)).collect();
         DifferenceGains { tau0, at }
     }
 

@@ -1538,7 +1538,7 @@ mod tests {
     }
 
     #[test]
-    fn a_costly_diagnosis_delays_the_next_by_its_cost_over_the_cpu_share() {
+    fn a_diagnosis_starts_once_the_cpu_share_has_earned_what_it_is_expected_to_cost() {
         use std::time::{Duration, Instant};
         let (mut m, calls, settings) = diagnosing(0.001, 0.1, Duration::from_millis(10));
         let mut t = 0;
@@ -1552,10 +1552,11 @@ mod tests {
         while count() < 1 {
             step(&mut m);
         }
-        // It cost at least 10 ms: at a 10 % share the next waits at least 90 ms from its end,
-        // the round's second axis as much as a new round would.
+        // The first started at once and cost at least 10 ms, of which a 10 % share had earned
+        // 1 ms while it ran: 9 ms to pay back, then the next one's expected 10 ms to earn, 190 ms
+        // from its end (resting after each diagnosis, as before, waited 90 ms).
         let done = Instant::now();
-        while done.elapsed() < Duration::from_millis(60) {
+        while done.elapsed() < Duration::from_millis(150) {
             step(&mut m);
         }
         assert_eq!(count(), 1);
@@ -1564,9 +1565,9 @@ mod tests {
             step(&mut m);
         }
         assert_eq!(count(), 2);
-        // (`done` was taken a little after the end the rest counts from.)
-        assert!(done.elapsed() >= Duration::from_millis(85), "{:?}", done.elapsed());
-        // Share 1, live: each diagnosis may start as soon as the last one has ended.
+        // (`done` was taken a little after the end the credit counts from.)
+        assert!(done.elapsed() >= Duration::from_millis(180), "{:?}", done.elapsed());
+        // Share 1, live: no budget, each diagnosis may start as soon as the last one has ended.
         m.set_settings(MonitorSettings { diagnosis_cpu_share: 1.0, ..settings });
         let deadline = Instant::now() + Duration::from_secs(10);
         while count() < 12 && Instant::now() < deadline {
@@ -1574,5 +1575,23 @@ mod tests {
         }
         assert_eq!(count(), 12);
         assert_eq!(&calls.lock().unwrap()[6..], &Axis::ALL);
+    }
+
+    #[test]
+    fn a_diagnosis_is_expected_to_cost_its_axis_last_scaled_by_the_record_at_most_twofold() {
+        let (mut m, _, _) = diagnosing(1.0, 0.005, std::time::Duration::ZERO);
+        assert_eq!(m.expected_cost(Axis::GyroX, 1000), 0.0);
+        m.cost_of[Axis::GyroX.index()] = Some((0.2, 1000));
+        m.cost_of[Axis::AccelZ.index()] = Some((0.3, 1000));
+        // In proportion to the record: 1.5 times as long, 1.5 times the cost.
+        assert!((m.expected_cost(Axis::GyroX, 1500) - 0.3).abs() < 1e-12);
+        // A record halved at its cap: half.
+        assert!((m.expected_cost(Axis::GyroX, 500) - 0.1).abs() < 1e-12);
+        // From a first diagnosis of a short record (its fixed part): at most twice.
+        assert!((m.expected_cost(Axis::GyroX, 100_000) - 0.4).abs() < 1e-12);
+        // An axis not diagnosed yet: the costliest other's.
+        assert!((m.expected_cost(Axis::GyroY, 1000) - 0.3).abs() < 1e-12);
+        // Without the record's length (an engine that cannot tell): the last cost as it was.
+        assert!((m.expected_cost(Axis::GyroX, 0) - 0.2).abs() < 1e-12);
     }
 }

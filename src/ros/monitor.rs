@@ -1445,9 +1445,12 @@ mod tests {
     #[test]
     fn the_diagnosis_runs_one_axis_per_report_each_period_and_warns_with_a_suggestion() {
         let calls = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+        // No CPU budget (share 1): the rounds are paced by the period alone, whatever the clock
+        // (the budget's own test is below).
         let settings = MonitorSettings {
             diagnosis_period_s: 2.0,
             stale_timeout_s: 100.0,
+            diagnosis_cpu_share: 1.0,
             ..MonitorSettings::default()
         };
         let mut m = Monitor::new(settings, Some(Box::new(Diagnosing(calls.clone(), std::time::Duration::ZERO, Kept::default()))));
@@ -1565,8 +1568,9 @@ mod tests {
             step(&mut m);
         }
         assert_eq!(count(), 2);
-        // (`done` was taken a little after the end the credit counts from.)
-        assert!(done.elapsed() >= Duration::from_millis(180), "{:?}", done.elapsed());
+        // (`done` was taken a little after the end the credit counts from: a loaded machine may
+        // take it late.)
+        assert!(done.elapsed() >= Duration::from_millis(150), "{:?}", done.elapsed());
         // Share 1, live: no budget, each diagnosis may start as soon as the last one has ended.
         m.set_settings(MonitorSettings { diagnosis_cpu_share: 1.0, ..settings });
         let deadline = Instant::now() + Duration::from_secs(10);

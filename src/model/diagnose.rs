@@ -905,7 +905,7 @@ fn time_test<'a>(
             // noise model does not hold — a rate explained exactly by a regression left rounding
             // noise, and the scan named a step of 3.7·10⁻²⁰ ± 5·10⁻¹⁹ rad/s.
             if test.significant {
-                let at = est.values.first().map_or(scan.index, |t| (t / input.tau0).round() as usize);
+                let at = est.values.first().map_or(scan.index, |&t| timedomain::index_at(t, input.tau0));
                 test.significant =
                     timedomain::step_size(series, at, w.noise()).is_some_and(|g| g.t2 >= RESOLVED_T2);
             }

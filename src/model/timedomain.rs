@@ -551,15 +551,7 @@ impl Whitened {
         noise: &NoiseSpectrum,
     ) -> Option<Self> {
         debug_assert_eq!(gains.at.len(), spectrum.len() + 1);
-        let untapered: Vec<f64> = gains
-            .at
-            .iter()
-            .enumerate()
-            .map(|(m, &gain)| {
-                let f = DifferenceGains::frequency(m, len, noise.tau0);
-                len as f64 * noise.diff_psd_with_gain(f, gain) / (2.0 * noise.tau0)
-            })
-            .collect();
+        let untapered: Vec<f64> = (0..gains.at.len()).map(|m| gains.untapered(noise, len, m)).collect();
         if untapered.iter().skip(1).any(|s| !(s.is_finite() && *s > 0.0)) {
             return None;
         }
@@ -616,8 +608,7 @@ impl Whitened {
     pub fn regress_measured(&self, x: &[f64]) -> Option<Regression> {
         let g = self.gls(x)?;
         let unit = NoiseSpectrum { tau0: self.noise.tau0, parts: vec![(NoiseClass::WhiteFm, 1.0)] };
-        let n = self.len as f64;
-        let u = |m: usize| n * unit.diff_psd(m as f64 / (n * self.noise.tau0)) / (2.0 * self.noise.tau0);
+        let u = |m: usize| self.gains.untapered(&unit, self.len, m);
         let bins = g.xs.len();
         let u_kk = |k: usize| u(k) / 4.0 + (u(k - 1) + u(k + 1)) / 16.0;
         let mut ratios: Vec<f64> = (bins / 2..bins).map(|k| g.xs[k].norm_sqr() / u_kk(k)).collect();
@@ -926,6 +917,12 @@ pub struct Plan {
     taper: Arc<[f64]>,
 }
 
+/// The index of the sample at `time_s` seconds from the first, on a grid of `tau0` s: how a
+/// time-domain estimate's time (a step's, a burst's ends) is placed back on the series.
+pub fn index_at(time_s: f64, tau0: f64) -> usize {
+    (time_s / tau0).round() as usize
+}
+
 /// (2 sin πfτ0)²: the power gain at `f` Hz of a first difference of samples `tau0` s apart.
 fn difference_gain(f: f64, tau0: f64) -> f64 {
     (2.0 * (std::f64::consts::PI * f * tau0).sin()).powi(2)
@@ -953,6 +950,14 @@ impl DifferenceGains {
     /// f_m, Hz.
     fn frequency(m: usize, len: usize, tau0: f64) -> f64 {
         m as f64 / (len as f64 * tau0)
+    }
+
+    /// s_m of [`Whitened`]'s formula for `noise` (of these gains' τ0) on a transform of `len`
+    /// differences: n·S_Δ(f_m)/(2τ0), S_Δ the PSD of the differences.
+    fn untapered(&self, noise: &NoiseSpectrum, len: usize, m: usize) -> f64 {
+        debug_assert_eq!(self.tau0.to_bits(), noise.tau0.to_bits());
+        let f = Self::frequency(m, len, noise.tau0);
+        len as f64 * noise.diff_psd_with_gain(f, self.at[m]) / (2.0 * noise.tau0)
     }
 }
 

@@ -6,7 +6,7 @@ use super::{
     WithEstimator,
 };
 use crate::model::fit::{AxisInput, FitError};
-use crate::model::timedomain::{find_step, step_size, Estimate, NoiseSpectrum, Signature};
+use crate::model::timedomain::{self, find_step, step_size, Estimate, NoiseSpectrum, Signature};
 use rand::RngCore;
 
 static SCHEMA: &[ParamSpec] = &[
@@ -77,7 +77,7 @@ impl TimeEstimator for StepSearch {
         Ok(est)
     }
     fn remove(&self, values: &[f64], input: &AxisInput<'_>, series: &mut [f64]) {
-        let start = (values[0] / input.tau0).round() as usize;
+        let start = timedomain::index_at(values[0], input.tau0);
         series.iter_mut().skip(start).for_each(|y| *y -= values[1]);
     }
     fn estimation_rank(&self) -> usize {

@@ -7,7 +7,7 @@ use super::{
 };
 use crate::model::fit::{AxisInput, FitError};
 use crate::model::timedomain::{
-    block_len, find_burst, shrink_white, Estimate, NoiseSpectrum, Signature,
+    self, block_len, find_burst, shrink_white, Estimate, NoiseSpectrum, Signature,
 };
 use rand::RngCore;
 
@@ -83,8 +83,8 @@ impl TimeEstimator for BurstSearch {
         Ok(Estimate::event(values, b.strength, Signature::WhiteLevel))
     }
     fn remove(&self, values: &[f64], input: &AxisInput<'_>, series: &mut [f64]) {
-        let start = (values[0] / input.tau0).round() as usize;
-        let end = ((values[1] / input.tau0).round() as usize).min(series.len());
+        let start = timedomain::index_at(values[0], input.tau0);
+        let end = timedomain::index_at(values[1], input.tau0).min(series.len());
         shrink_white(&mut series[start.min(end)..end], values[2], block_len(input.tau0));
     }
     fn estimation_rank(&self) -> usize {

@@ -856,7 +856,7 @@ fn receive_loop(
             }
         }
         // (A negative gap is the wall clock stepping back: no evidence of a fast topic.)
-        if let (true, Some(last_ns)) = (taken > 0 && (0..period_ns).contains(&last_gap_ns), last_arrival_ns) {
+        if let Some(last_ns) = last_arrival_ns.filter(|_| taken > 0 && (0..period_ns).contains(&last_gap_ns)) {
             batching_now = true;
             if taken < batching.full {
                 std::thread::sleep(batching.wait(last_ns, last_gap_ns, wall_ns()));

@@ -64,7 +64,19 @@ pub fn nnls(a: &DMatrix<f64>, b: &DVector<f64>) -> Result<DVector<f64>, NnlsErro
         }
     }
     let usable: Vec<bool> = norms.iter().map(|&n| n > 0.0).collect();
-    let z = lawson_hanson(&s, b, &usable);
+    let tol = 1e-12 * (1.0 + b.norm()) * (cols.max(1) as f64);
+    let z = if rows > cols {
+        // With S = QR (Q: k×p, orthonormal columns), ‖S·x − b‖² = ‖R·x − Qᵀb‖² + ‖b − QQᵀb‖²
+        // for every x, and Sᵀ(b − S·x) = Rᵀ(Qᵀb − R·x): the same problem, the same iterates, on
+        // the p×p triangle. Why: the active set solves one least-squares problem per passive
+        // set, and their SVDs of k×p columns (k ≈ 40 τ, p ≤ 7) were the fit's largest cost.
+        let qr = s.qr();
+        let mut qtb = b.clone();
+        qr.q_tr_mul(&mut qtb);
+        lawson_hanson(&qr.unpack_r(), &qtb.rows(0, cols).into_owned(), &usable, tol)
+    } else {
+        lawson_hanson(&s, b, &usable, tol)
+    };
     Ok(DVector::from_iterator(
         cols,
         (0..cols).map(|j| if usable[j] { z[j] / norms[j] } else { 0.0 }),
@@ -72,14 +84,14 @@ pub fn nnls(a: &DMatrix<f64>, b: &DVector<f64>) -> Result<DVector<f64>, NnlsErro
 }
 
 /// The active-set iteration on a column-scaled matrix.
-fn lawson_hanson(a: &DMatrix<f64>, b: &DVector<f64>, usable: &[bool]) -> DVector<f64> {
+/// `tol`: the gradient a column must exceed to enter, and the value under which it leaves.
+fn lawson_hanson(a: &DMatrix<f64>, b: &DVector<f64>, usable: &[bool], tol: f64) -> DVector<f64> {
     let cols = a.ncols();
-    let tol = 1e-12 * (1.0 + b.norm()) * (cols.max(1) as f64);
     let mut x = DVector::zeros(cols);
     let mut passive = vec![false; cols];
     let max_outer = 3 * cols + 10;
     for _ in 0..max_outer {
-        let w = a.transpose() * (b - a * &x);
+        let w = a.tr_mul(&(b - a * &x));
         let candidate = (0..cols)
             .filter(|&j| usable[j] && !passive[j] && w[j] > tol)
             .max_by(|&i, &j| w[i].total_cmp(&w[j]));

@@ -675,26 +675,29 @@ impl Whitened {
         }
         let xs = tapered_diff_dft(&x[self.skip..], &self.plan);
         let bins = xs.len();
-        // The weights a_k are computed where used, not stored: a whole-run record's driver
-        // transform is millions of bins.
-        let a = |k: usize| self.weight(&xs, k);
-        let num: f64 = (1..bins).map(|k| (a(k).conj() * self.spectrum[k]).re).sum();
-        let den: f64 = (1..bins).map(|k| (a(k).conj() * xs[k]).re).sum();
+        // One pass, each weight a_k computed once and held while the two bins after it need it
+        // (not stored: a whole-run record's driver transform is millions of bins); each sum adds
+        // the same terms in the same order as a pass of its own.
+        let zero = Complex::new(0.0, 0.0);
+        let weight = |k: usize| if k < bins { self.weight(&xs, k) } else { zero };
+        let (mut a, mut a1, mut a2) = (weight(1), weight(2), weight(3));
+        let (mut num, mut den, mut var) = (0.0, 0.0, 0.0);
+        for (k, (x_k, y_k)) in xs.iter().zip(self.spectrum.iter()).enumerate().skip(1) {
+            num += (a.conj() * y_k).re;
+            den += (a.conj() * x_k).re;
+            let mut v = a.norm_sqr() * self.cov(k, 0);
+            for (d, next) in [(1, a1), (2, a2)] {
+                if k + d < bins {
+                    v += 2.0 * (a.conj() * next).re * self.cov(k, d);
+                }
+            }
+            var += v;
+            (a, a1, a2) = (a1, a2, weight(k + 3));
+        }
         if den.is_nan() || den <= 0.0 {
             return None;
         }
-        let var_num = 0.5
-            * (1..bins)
-                .map(|k| {
-                    let mut v = a(k).norm_sqr() * self.cov(k, 0);
-                    for d in 1..=2 {
-                        if k + d < bins {
-                            v += 2.0 * (a(k).conj() * a(k + d)).re * self.cov(k, d);
-                        }
-                    }
-                    v
-                })
-                .sum::<f64>();
+        let var_num = 0.5 * var;
         if var_num.is_nan() || var_num <= 0.0 {
             return None;
         }
@@ -1049,17 +1052,22 @@ fn tapered_diff_dft(y: &[f64], plan: &Plan) -> Vec<Complex<f64>> {
     let (n, fft) = (y.len().saturating_sub(1), &plan.fft);
     let mut held = y.iter().copied().find(|v| v.is_finite()).unwrap_or(0.0);
     debug_assert_eq!(plan.taper.len(), n);
-    let mut d: Vec<f64> = y
-        .windows(2)
-        .zip(plan.taper.iter())
-        .map(|(w, h)| {
-            if w[0].is_finite() {
-                held = w[0];
-            }
-            let v = if w[1].is_finite() { w[1] - held } else { 0.0 };
-            v * h
-        })
-        .collect();
+    let mut d: Vec<f64> = if y.iter().all(|v| v.is_finite()) {
+        // The usual record: the same differences without the holding, in a loop the compiler
+        // lays out as vectors.
+        y.windows(2).zip(plan.taper.iter()).map(|(w, h)| (w[1] - w[0]) * h).collect()
+    } else {
+        y.windows(2)
+            .zip(plan.taper.iter())
+            .map(|(w, h)| {
+                if w[0].is_finite() {
+                    held = w[0];
+                }
+                let v = if w[1].is_finite() { w[1] - held } else { 0.0 };
+                v * h
+            })
+            .collect()
+    };
     debug_assert_eq!(fft.len(), n);
     let mut spectrum = fft.make_output_vec();
     fft.process(&mut d, &mut spectrum)

@@ -102,6 +102,8 @@ pub struct DavarEngine {
     /// The layout of the rows of a window without invalid samples, by window (slot W mod
     /// [`MEMO_SLOTS`]): such rows of one window share it.
     layouts: Vec<Arc<RowLayout>>,
+    /// 1/(2m²·terms) of each point of the layout in the same slot: σ²(τ) = sum × this.
+    inverse_divisors: Vec<Vec<f64>>,
     /// Indices held, L; the engine rebases every L samples.
     len: usize,
     /// Samples pushed so far (the index of the next sample).
@@ -246,6 +248,7 @@ impl DavarEngine {
             interval_of: IntervalMemo::new(factors.len()),
             spare: Vec::new(),
             layouts: (0..MEMO_SLOTS).map(|_| Arc::default()).collect(),
+            inverse_divisors: vec![Vec::new(); MEMO_SLOTS],
             len,
             n: 0,
             base: 0,
@@ -514,47 +517,47 @@ impl DavarEngine {
             sums[i] = (lanes[at] - lanes[at - total]).max(0.0);
         }
         let full = valid == w;
-        if full {
-            // Every sample of the window is valid, so is every term.
-            for (count, &m) in counts.iter_mut().zip(&self.factors) {
-                *count = (w - 2 * m + 1) as u64;
+        let mut excluded = 0usize;
+        let layout = if full {
+            // Every sample of the window is valid, so is every term, and no factor is left out:
+            // the window's layout and divisors, made once per window.
+            let slot = w % MEMO_SLOTS;
+            if self.layouts[slot].window != w {
+                let (memo, shared) = (&mut self.interval_of, &self.intervals);
+                let points = (0..used)
+                    .map(|i| PointLayout::of(i, self.factors[i], &self.scales[i], w - 2 * self.factors[i] + 1, w, memo, shared))
+                    .collect();
+                self.layouts[slot] = Arc::new(RowLayout { window: w, points });
+                self.inverse_divisors[slot].clear();
+                self.inverse_divisors[slot].extend(
+                    self.factors[..used].iter().zip(&self.scales).map(|(&m, scale)| 1.0 / (scale.two_m2 * (w - 2 * m + 1) as f64)),
+                );
             }
+            // A product instead of a quotient per factor: the divisions were the row's latency.
+            for ((avar, &sum), &inverse) in avars.iter_mut().zip(sums.iter()).zip(&self.inverse_divisors[slot]) {
+                *avar = sum * inverse;
+            }
+            avars_out.extend_from_slice(avars);
+            Arc::clone(&self.layouts[slot])
         } else {
             let lanes = &self.term_counts;
             for (i, &m) in self.factors[..used].iter().enumerate() {
                 let at = i * span + e;
                 counts[i] = lanes[at] - lanes[at - (w - 2 * m + 1)];
             }
-        }
-        for ((avar, (&sum, &count)), scale) in avars.iter_mut().zip(sums.iter().zip(counts.iter())).zip(&self.scales) {
-            // Through i64: a count is far below 2⁵³, so the value is the same, and the
-            // conversion is one instruction (u64's is a sequence).
-            *avar = sum / (scale.two_m2 * count as i64 as f64); // 0/0 where count = 0: unused
-        }
-        let mut excluded = 0usize;
-        let layout = if full {
-            // No factor is left out: the window's layout, made once per window.
-            avars_out.extend_from_slice(avars);
-            let slot = &mut self.layouts[w % MEMO_SLOTS];
-            if slot.window != w {
-                let (memo, shared) = (&mut self.interval_of, &self.intervals);
-                let points = (0..used)
-                    .map(|i| PointLayout::of(i, self.factors[i], &self.scales[i], w - 2 * self.factors[i] + 1, w, memo, shared))
-                    .collect();
-                *slot = Arc::new(RowLayout { window: w, points });
-            }
-            Arc::clone(slot)
-        } else {
             let (memo, shared) = (&mut self.interval_of, &self.intervals);
             let mut points = Vec::with_capacity(used);
-            for (i, ((&m, scale), (&count, &avar))) in
-                self.factors.iter().zip(&self.scales).zip(counts.iter().zip(avars.iter())).enumerate()
+            for (i, ((&m, scale), (&count, avar))) in
+                self.factors.iter().zip(&self.scales).zip(counts.iter().zip(avars.iter_mut())).enumerate()
             {
                 let terms = count as usize;
                 excluded += w - 2 * m + 1 - terms;
                 if terms > 0 {
+                    // Through i64: a count is far below 2⁵³, so the value is the same, and the
+                    // conversion is one instruction (u64's is a sequence).
+                    *avar = sums[i] / (scale.two_m2 * count as i64 as f64);
                     points.push(PointLayout::of(i, m, scale, terms, w, memo, shared));
-                    avars_out.push(avar);
+                    avars_out.push(*avar);
                 }
             }
             Arc::new(RowLayout { window: 0, points })

@@ -22,8 +22,8 @@ pub mod streaming;
 
 pub use grid::{TauGrid, TauGridError};
 pub use rate::{
-    oavar_rate, oavar_rate_bridged, oavar_rate_bridged_in, oavar_rate_bridged_variances_in, oavar_rate_counted, RatePoint,
-    BRIDGE_MAX_MISSING,
+    oavar_rate, oavar_rate_bridged, oavar_rate_bridged_in, oavar_rate_bridged_variances_in, oavar_rate_counted,
+    oavar_rate_variances_with_spans_in, RatePoint, BRIDGE_MAX_MISSING,
 };
 
 use serde::{Deserialize, Serialize};

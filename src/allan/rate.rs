@@ -142,6 +142,102 @@ pub fn oavar_rate_bridged_variances_in(rate: &[f64], tau0: f64, factors: &[usize
     rate_points(rate, tau0, factors, true, Confidence::Skipped, phase)
 }
 
+/// [`oavar_rate_bridged_variances_in`] of the record `rate` at `factors` and of each span
+/// `rate[range]` at its own factors, in one pass over the record's phase when no sample is invalid.
+///
+/// A term is the second difference of the phase over 2m samples, `x[i+2m] − 2x[i+m] + x[i] =
+/// τ0·(Σ y[i+m .. i+2m] − Σ y[i .. i+m])`: it reads its own 2m samples only, so the span's term at
+/// a sample is the record's term there (each integrates from its own first sample, an offset that
+/// cancels). Each factor's terms are summed once per segment between the spans' ends, and the
+/// record and each span add the segments they hold, in order.
+///
+/// Why: the fit measures the record and its half-overlapping spans (`model::fit::spans`), which
+/// together hold each term about three times; summed once, the fit's measurement costs less than
+/// half. The sums are the separate measurements' up to the order of the additions (relative
+/// rounding 1e-16 per term). With invalid samples each span is measured on its own, as the
+/// bridging rule decides per span.
+pub fn oavar_rate_variances_with_spans_in(
+    rate: &[f64],
+    tau0: f64,
+    factors: &[usize],
+    spans: &[(std::ops::Range<usize>, Vec<usize>)],
+    phase: &mut Vec<f64>,
+) -> (Vec<RatePoint>, Vec<Vec<RatePoint>>) {
+    let separately = |phase: &mut Vec<f64>| {
+        let record = oavar_rate_bridged_variances_in(rate, tau0, factors, phase);
+        let spans = spans
+            .iter()
+            .map(|(range, factors)| oavar_rate_bridged_variances_in(&rate[range.clone()], tau0, factors, phase))
+            .collect();
+        (record, spans)
+    };
+    if !(tau0.is_finite() && tau0 > 0.0) || rate.is_empty() || !rate.iter().all(|v| v.is_finite()) {
+        return separately(phase);
+    }
+    let Some(_) = rate_sums(rate, tau0, &[], false, phase) else {
+        return separately(phase);
+    };
+    let x: &[f64] = phase;
+    // Each target: the terms [start, end) it sums (its phase has len + 1 points, its terms
+    // i ≤ len − 2m) at factor m. Target 0 is the record.
+    let targets: Vec<(usize, &[usize])> = std::iter::once((0, factors))
+        .chain(spans.iter().map(|(r, f)| (r.start, f.as_slice())))
+        .collect();
+    let lens: Vec<usize> = std::iter::once(rate.len()).chain(spans.iter().map(|(r, _)| r.len())).collect();
+    let mut sums: Vec<Vec<(usize, Terms)>> = vec![Vec::new(); targets.len()];
+    let mut all: Vec<usize> = targets.iter().flat_map(|&(_, f)| f.iter().copied()).filter(|&m| m > 0).collect();
+    all.sort_unstable();
+    all.dedup();
+    for m in all {
+        let ranges: Vec<(usize, std::ops::Range<usize>)> = targets
+            .iter()
+            .zip(&lens)
+            .enumerate()
+            .filter(|(_, (&(_, f), &len))| f.contains(&m) && len + 1 > 2 * m)
+            .map(|(t, (&(start, _), &len))| (t, start..start + len + 1 - 2 * m))
+            .collect();
+        let mut cuts: Vec<usize> = ranges.iter().flat_map(|(_, r)| [r.start, r.end]).collect();
+        cuts.sort_unstable();
+        cuts.dedup();
+        let segments: Vec<(std::ops::Range<usize>, Terms)> =
+            cuts.windows(2).map(|w| (w[0]..w[1], range_sums(x, &[], m, w[0]..w[1]))).collect();
+        for (t, r) in ranges {
+            let sum = segments
+                .iter()
+                .filter(|(s, _)| r.start <= s.start && s.end <= r.end)
+                .fold(Terms::default(), |acc, (_, s)| Terms { sum: acc.sum + s.sum, terms: acc.terms + s.terms, skipped: 0 });
+            sums[t].push((m, sum));
+        }
+    }
+    let mut points = sums.into_iter().map(|t| {
+        t.into_iter().filter_map(|(m, terms)| variance_point(m, tau0, terms, false)).collect::<Vec<_>>()
+    });
+    let record = points.next().unwrap_or_default();
+    (record, points.collect())
+}
+
+/// The σ² point of factor `m` from its sums ([`Confidence::Skipped`]); `None` without a term.
+fn variance_point(m: usize, tau0: f64, Terms { sum, terms, skipped }: Terms, bridged: bool) -> Option<RatePoint> {
+    if terms == 0 {
+        return None;
+    }
+    let tau = m as f64 * tau0;
+    Some(RatePoint {
+        point: AllanPoint {
+            m,
+            tau,
+            avar: sum / (2.0 * tau * tau * terms as f64),
+            terms,
+            edf: f64::NAN,
+            ci_low: f64::NAN,
+            ci_high: f64::NAN,
+        },
+        skipped,
+        alpha: None,
+        bridged,
+    })
+}
+
 /// What a measurement works out beyond σ² and its count of terms.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Confidence {
@@ -199,35 +295,14 @@ fn rate_points(
             if terms == 0 {
                 return None;
             }
+            let sums = Terms { sum, terms, skipped };
+            if confidence == Confidence::Skipped {
+                return variance_point(m, tau0, sums, bridged);
+            }
             let tau = m as f64 * tau0;
             let avar = sum / (2.0 * tau * tau * terms as f64);
-            let point = match confidence {
-                Confidence::Identified => with_confidence(
-                    m,
-                    tau,
-                    avar,
-                    terms,
-                    alpha.unwrap_or(0),
-                    shape,
-                    terms + 2 * m,
-                    super::edf::ONE_SIGMA,
-                ),
-                Confidence::Skipped => AllanPoint {
-                    m,
-                    tau,
-                    avar,
-                    terms,
-                    edf: f64::NAN,
-                    ci_low: f64::NAN,
-                    ci_high: f64::NAN,
-                },
-            };
-            Some(RatePoint {
-                point,
-                skipped,
-                alpha,
-                bridged,
-            })
+            let point = with_confidence(m, tau, avar, terms, alpha.unwrap_or(0), shape, terms + 2 * m, super::edf::ONE_SIGMA);
+            Some(RatePoint { point, skipped, alpha, bridged })
         })
         .collect()
 }
@@ -293,21 +368,6 @@ struct Terms {
     skipped: usize,
 }
 
-impl Terms {
-    /// Adds the term at `i` for factor `m` (left out when `bad` counts an invalid sample in it;
-    /// an empty `bad`: no sample is invalid).
-    #[inline(always)]
-    fn add(&mut self, x: &[f64], bad: &[usize], m: usize, i: usize) {
-        if bad.is_empty() || bad[i + 2 * m] == bad[i] {
-            let d = x[i + 2 * m] - 2.0 * x[i + m] + x[i];
-            self.sum += d * d;
-            self.terms += 1;
-        } else {
-            self.skipped += 1;
-        }
-    }
-}
-
 /// The bridged [`Terms`] of factor `m` ([`oavar_rate_bridged`]): each half's sum of valid
 /// samples is a phase difference (an invalid sample adds 0 to `x`), scaled to m samples.
 fn bridged_sums(x: &[f64], bad: &[usize], m: usize) -> Terms {
@@ -331,102 +391,110 @@ fn bridged_sums(x: &[f64], bad: &[usize], m: usize) -> Terms {
     acc
 }
 
-/// Factors summed side by side in one pass.
-const LANES: usize = 8;
+/// Partial sums per factor: term i of a range goes to partial sum (i − start) mod [`INTERLEAVE`].
+pub(super) const INTERLEAVE: usize = 8;
 
 /// [`Terms`] of phase `x` at each factor of `factors` (each with x.len() > 2m), over
-/// i = 0 … x.len() − 2m − 1.
-///
-/// Why in lanes: one factor's sum is a chain of dependent additions, so a loop per factor waits on
-/// the adder's latency at every term; [`LANES`] factors in one pass keep that many independent
-/// chains in flight. Each sum still adds its terms in index order, one at a time: every result is
-/// the same number, bit for bit, as the plain loop per factor. A record without invalid samples
-/// (`bad` all zero, the usual case) takes a loop without the validity test.
+/// i = 0 … x.len() − 2m − 1. An empty `bad` or one that counts no invalid sample: every term
+/// counts, and `bad` is not read.
 fn second_difference_sums(x: &[f64], bad: &[usize], factors: &[usize]) -> Vec<Terms> {
+    factors.iter().map(|&m| range_sums(x, bad, m, 0..x.len() - 2 * m)).collect()
+}
+
+/// [`Terms`] of factor `m` over the terms i ∈ `range` of phase `x` (`bad` as in
+/// [`second_difference_sums`]), on the widest vector unit the CPU has.
+///
+/// Why interleaved: one running sum is a chain of dependent additions that waits on the adder's
+/// latency at every term, and its terms cannot go through the vector units together. Term i is
+/// added to partial sum (i − start) mod [`INTERLEAVE`], each partial sum in index order, and the
+/// partial sums are added pairwise at the end ([`pairwise`]): eight independent chains that the
+/// compiler lays out as vector lanes. The rounding is that of a sum in another order (relative
+/// 1e-16 per term, as the plain loop's), and the same on every CPU: with AVX2 the same lanes go
+/// four to a register instead of two, and neither path fuses a multiply with an add.
+fn range_sums(x: &[f64], bad: &[usize], m: usize, range: std::ops::Range<usize>) -> Terms {
     let gap_free = bad.last().is_none_or(|&b| b == 0);
-    let mut out = Vec::with_capacity(factors.len());
-    for group in factors.chunks(LANES) {
-        // A short last group repeats its last factor: the spare lanes cost no latency.
-        let ms: [usize; LANES] = std::array::from_fn(|k| group[k.min(group.len() - 1)]);
-        let acc = if gap_free {
-            lanes::<false>(x, bad, ms)
-        } else {
-            lanes::<true>(x, bad, ms)
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2, checked on the line above.
+        return unsafe {
+            if gap_free {
+                interleaved_avx2::<false>(x, &[], m, range)
+            } else {
+                interleaved_avx2::<true>(x, bad, m, range)
+            }
         };
-        out.extend_from_slice(&acc[..group.len()]);
     }
-    out
+    if gap_free {
+        interleaved::<false>(x, &[], m, range)
+    } else {
+        interleaved::<true>(x, bad, m, range)
+    }
 }
 
-/// [`Terms`] of [`LANES`] factors in one pass; `CHECK`: test each term's samples for validity
-/// (without it, for a record with no invalid sample, every term counts).
+/// [`interleaved`] compiled for AVX2 (four lanes per register instead of SSE2's two).
 ///
-/// A lane's terms end at x.len() − 2m, so the pass runs in segments between those ends; in a
-/// segment, a lane that has ended repeats an active lane's factor and its sum is restored after
-/// (spare work, but no lane ever runs alone and waits on the adder's latency).
-fn lanes<const CHECK: bool>(x: &[f64], bad: &[usize], ms: [usize; LANES]) -> [Terms; LANES] {
-    let mut acc = [Terms::default(); LANES];
-    let ends = ms.map(|m| x.len() - 2 * m);
-    let mut from = 0;
-    while let Some(to) = ends.iter().copied().filter(|&e| e > from).min() {
-        let spare = ms[ends.iter().position(|&e| e > from).expect("an active lane")];
-        let run = std::array::from_fn(|k| if ends[k] > from { ms[k] } else { spare });
-        let kept = acc;
-        segment::<CHECK>(x, bad, run, from..to, &mut acc);
-        for k in (0..LANES).filter(|&k| ends[k] <= from) {
-            acc[k] = kept[k];
-        }
-        from = to;
-    }
-    acc
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn interleaved_avx2<const CHECK: bool>(x: &[f64], bad: &[usize], m: usize, range: std::ops::Range<usize>) -> Terms {
+    interleaved::<CHECK>(x, bad, m, range)
 }
 
-/// Indices per block of [`segment`].
-const BLOCK: usize = 256;
-
-/// Adds the terms i ∈ `range` of each lane's factor to `acc`, in index order.
-///
-/// In blocks of [`BLOCK`] indices cut as fixed-size arrays: inside a block no index needs a bounds
-/// check, and the lanes' sums stay in registers.
-fn segment<const CHECK: bool>(
-    x: &[f64],
-    bad: &[usize],
-    ms: [usize; LANES],
-    range: std::ops::Range<usize>,
-    acc: &mut [Terms; LANES],
-) {
-    fn block<T>(v: &[T], from: usize) -> &[T; BLOCK] {
-        v[from..from + BLOCK].try_into().expect("BLOCK values")
-    }
-    let mut i = range.start;
-    while i + BLOCK <= range.end {
-        let x0 = block(x, i);
-        let x1 = ms.map(|m| block(x, i + m));
-        let x2 = ms.map(|m| block(x, i + 2 * m));
-        // Without CHECK every term is valid and `bad` may be empty: nothing of it is read.
-        let (b0, b2) = if CHECK {
-            (block(bad, i), ms.map(|m| block(bad, i + 2 * m)))
-        } else {
-            (&[0; BLOCK], [&[0; BLOCK]; LANES])
-        };
-        for j in 0..BLOCK {
-            for (k, t) in acc.iter_mut().enumerate() {
-                if !CHECK || b2[k][j] == b0[j] {
-                    let d = x2[k][j] - 2.0 * x1[k][j] + x0[j];
-                    t.sum += d * d;
-                    t.terms += 1;
-                } else {
-                    t.skipped += 1;
-                }
+/// The sums of [`range_sums`]; `CHECK`: test each term's samples for validity
+/// (`bad[i + 2m] == bad[i]`), branch-free so that the lanes stay vectors.
+#[inline(always)]
+fn interleaved<const CHECK: bool>(x: &[f64], bad: &[usize], m: usize, range: std::ops::Range<usize>) -> Terms {
+    const K: usize = INTERLEAVE;
+    let (lo, n) = (range.start, range.len());
+    let whole = n - n % K;
+    let (x0, x1, x2) = (&x[lo..lo + n], &x[lo + m..lo + m + n], &x[lo + 2 * m..lo + 2 * m + n]);
+    let mut sum = [0.0f64; K];
+    let mut terms = [0usize; K];
+    let chunks = x0[..whole].chunks_exact(K).zip(x1[..whole].chunks_exact(K)).zip(x2[..whole].chunks_exact(K));
+    let (b0, b2) = if CHECK { (&bad[lo..lo + n], &bad[lo + 2 * m..lo + 2 * m + n]) } else { (&[][..], &[][..]) };
+    if CHECK {
+        for (((a, b), c), (v0, v2)) in chunks.zip(b0[..whole].chunks_exact(K).zip(b2[..whole].chunks_exact(K))) {
+            for k in 0..K {
+                let d = c[k] - 2.0 * b[k] + a[k];
+                let ok = v2[k] == v0[k];
+                sum[k] += if ok { d * d } else { 0.0 };
+                terms[k] += usize::from(ok);
             }
         }
-        i += BLOCK;
-    }
-    for i in i..range.end {
-        for (t, &m) in acc.iter_mut().zip(&ms) {
-            t.add(x, if CHECK { bad } else { &[] }, m, i);
+    } else {
+        // Two quads of lanes: the compiler then keeps each in one vector (with eight lanes at
+        // once it split them 2 + 4 + 2 and gathered the ends element by element).
+        let (mut low, mut high) = ([0.0f64; 4], [0.0f64; 4]);
+        for ((a, b), c) in chunks {
+            quad(&mut low, &a[..4], &b[..4], &c[..4]);
+            quad(&mut high, &a[4..], &b[4..], &c[4..]);
         }
+        sum = [low[0], low[1], low[2], low[3], high[0], high[1], high[2], high[3]];
     }
+    for i in whole..n {
+        let ok = !CHECK || b2[i] == b0[i];
+        let d = x2[i] - 2.0 * x1[i] + x0[i];
+        sum[i - whole] += if ok { d * d } else { 0.0 };
+        terms[i - whole] += usize::from(ok);
+    }
+    let terms = if CHECK { terms.iter().sum() } else { n };
+    Terms { sum: pairwise(sum), terms, skipped: n - terms }
+}
+
+/// Adds (c − 2b + a)² to four lanes.
+#[inline(always)]
+fn quad(acc: &mut [f64; 4], a: &[f64], b: &[f64], c: &[f64]) {
+    let (a, b, c) = (&a[..4], &b[..4], &c[..4]);
+    for k in 0..4 {
+        let d = c[k] - 2.0 * b[k] + a[k];
+        acc[k] += d * d;
+    }
+}
+
+/// ((s0 + s1) + (s2 + s3)) + ((s4 + s5) + (s6 + s7)): the partial sums in a fixed order.
+pub(super) fn pairwise(s: [f64; INTERLEAVE]) -> f64 {
+    ((s[0] + s[1]) + (s[2] + s[3])) + ((s[4] + s[5]) + (s[6] + s[7]))
 }
 
 #[cfg(test)]
@@ -474,10 +542,12 @@ mod tests {
             }
         }
 
-        // The lanes, segments and blocks give every factor's sum bit for bit as the plain loop
-        // over i for that factor alone (with and without invalid samples).
+        // The interleaved sums are the plain loop's over i for each factor alone (with and
+        // without invalid samples) up to the order of the additions; a record without invalid
+        // samples gives the same bits whether `bad` is given or left empty, and a range's sums
+        // are those of its terms alone.
         #[test]
-        fn lanes_equal_the_plain_loop_exactly(y in prop::collection::vec(-10f64..10.0, 600..1400), holes in prop::collection::vec(0usize..1400, 0..3), pick in prop::collection::vec(1usize..300, 1..20)) {
+        fn interleaved_sums_equal_the_plain_loop(y in prop::collection::vec(-10f64..10.0, 600..1400), holes in prop::collection::vec(0usize..1400, 0..3), pick in prop::collection::vec(1usize..300, 1..20), cut in 0usize..1400) {
             let mut y = y;
             let n = y.len();
             for h in &holes { y[h % n] = f64::NAN; }
@@ -493,17 +563,68 @@ mod tests {
                 Some(*acc)
             })).collect();
             let got = second_difference_sums(&x, &bad, &factors);
-            // Without invalid samples `bad` may be left empty: the same sums.
             let gap_free = bad.last() == Some(&0);
             let got_empty = gap_free.then(|| second_difference_sums(&x, &[], &factors));
             prop_assert!(got_empty.is_none_or(|e| e.iter().zip(&got).all(|(a, b)| a.sum.to_bits() == b.sum.to_bits() && a.terms == b.terms)));
-            for (t, &m) in got.iter().zip(&factors) {
+            let plain = |m: usize, range: std::ops::Range<usize>| {
                 let mut want = Terms::default();
-                for i in 0..x.len() - 2 * m {
-                    want.add(&x, &bad, m, i);
+                for i in range {
+                    if bad[i + 2 * m] == bad[i] {
+                        let d = x[i + 2 * m] - 2.0 * x[i + m] + x[i];
+                        want.sum += d * d;
+                        want.terms += 1;
+                    } else {
+                        want.skipped += 1;
+                    }
                 }
-                prop_assert_eq!(t.sum.to_bits(), want.sum.to_bits(), "m = {}", m);
+                want
+            };
+            for (t, &m) in got.iter().zip(&factors) {
+                let want = plain(m, 0..x.len() - 2 * m);
+                prop_assert!((t.sum - want.sum).abs() <= 1e-13 * want.sum, "m = {}: {} vs {}", m, t.sum, want.sum);
                 prop_assert_eq!((t.terms, t.skipped), (want.terms, want.skipped));
+                let end = x.len() - 2 * m;
+                let part = range_sums(&x, &bad, m, cut.min(end)..end);
+                let want = plain(m, cut.min(end)..end);
+                prop_assert!((part.sum - want.sum).abs() <= 1e-13 * want.sum);
+                prop_assert_eq!((part.terms, part.skipped), (want.terms, want.skipped));
+            }
+        }
+
+        // Record and spans in one pass: each is its own measurement up to the order of the
+        // additions, point for point; with an invalid sample, exactly the separate measurements.
+        #[test]
+        fn spans_in_one_pass_equal_their_own_measurements(y in prop::collection::vec(-10f64..10.0, 400..1200), bias in -1e3f64..1e3, parts in 2usize..6, hole in prop::option::of(0usize..1200)) {
+            let mut y: Vec<f64> = y.iter().map(|v| v + bias).collect();
+            let n = y.len();
+            if let Some(h) = hole { y[h % n] = f64::NAN; }
+            let grid = TauGrid::default();
+            let factors = grid.factors(n / 3);
+            let spans: Vec<(std::ops::Range<usize>, Vec<usize>)> = (0..2 * parts - 1)
+                .map(|i| {
+                    let r = i * n / (2 * parts)..(i + 2) * n / (2 * parts);
+                    let f = grid.factors(r.len() / 3);
+                    (r, f)
+                })
+                .collect();
+            let (record, measured) = oavar_rate_variances_with_spans_in(&y, 0.01, &factors, &spans, &mut Vec::new());
+            let own = |rate: &[f64], factors: &[usize]| oavar_rate_bridged_variances_in(rate, 0.01, factors, &mut Vec::new());
+            let same = |got: &[RatePoint], want: &[RatePoint]| -> Result<(), TestCaseError> {
+                prop_assert_eq!(got.len(), want.len());
+                for (g, w) in got.iter().zip(want) {
+                    prop_assert_eq!((g.point.m, g.point.terms, g.skipped, g.bridged), (w.point.m, w.point.terms, w.skipped, w.bridged));
+                    if hole.is_some() {
+                        prop_assert_eq!(g.point.avar.to_bits(), w.point.avar.to_bits());
+                    } else {
+                        prop_assert!((g.point.avar / w.point.avar - 1.0).abs() < 1e-9, "m = {}: {} vs {}", g.point.m, g.point.avar, w.point.avar);
+                    }
+                }
+                Ok(())
+            };
+            same(&record, &own(&y, &factors))?;
+            prop_assert_eq!(measured.len(), spans.len());
+            for ((range, f), got) in spans.iter().zip(&measured) {
+                same(got, &own(&y[range.clone()], f))?;
             }
         }
     }

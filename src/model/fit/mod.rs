@@ -63,7 +63,7 @@ use crate::model::timedomain::{self, NoiseSpectrum, Plans, Signature};
 use crate::signal::Axis;
 use scoring::rms;
 use solver::Problem;
-use spans::{check_span, failing_spans, measure_spans, SpanMeasure};
+use spans::{check_span, failing_spans, measure_with_spans, SpanMeasure};
 use types::term_of;
 
 /// Fewest rate samples a whole-record fit accepts.
@@ -214,16 +214,14 @@ pub fn prepare(
     }
     let max_m = ((series.len() as f64) * opts.max_m_fraction).floor() as usize;
     let factors = opts.grid.factors(max_m.max(1));
-    // One phase buffer for the record and then each of its spans.
-    let mut phase = Vec::new();
-    let (points, bridged) = measure(&series, input.tau0, &factors, &mut phase);
+    let (points, bridged, spans) = measure_with_spans(&series, input.tau0, &factors, opts, &mut Vec::new());
     Ok(Prepared {
         axis: input.axis,
         points,
         bridged,
         time_terms,
         events,
-        spans: measure_spans(&series, input.tau0, opts, &mut phase),
+        spans,
         samples: SampleContext {
             lines: if spectral_kinds.iter().any(|k| has_frequency(*k)) {
                 periodogram::line_candidates(&series, input.tau0, &Plans::default())

@@ -11,7 +11,7 @@
 use super::scoring::{rms, z_scores, FAILING_Z};
 use super::types::{FitOptions, Span};
 use super::CurveFit;
-use crate::allan::{oavar_rate_bridged_variances_in, AllanPoint};
+use crate::allan::{oavar_rate_variances_with_spans_in, AllanPoint};
 use crate::model::measure::{edf_for_mix, NoiseClass};
 use serde::{Deserialize, Serialize};
 
@@ -50,39 +50,52 @@ pub(super) struct SpanMeasure {
     points: Vec<AllanPoint>,
 }
 
-/// Cuts the cleaned `series` into `opts.spans` equal spans (fewer if a span would hold fewer than
-/// [`MIN_SPAN_SAMPLES`]) and measures the Allan variance of each on the record's τ grid.
+/// Measures the Allan variance of the cleaned `series` at `factors` and of each of its spans on
+/// the record's τ grid: the record's points, the factors that were bridged, the spans.
 ///
-/// Why: the whole-record Allan variance averages over time. A noise burst only raises the white
-/// level, a bias step reads as a rate random walk, a warm-up as flicker and random walk; a
-/// stationary model then fits the whole record and still fails inside the span where the record
-/// is not stationary. The model, fitted once on the whole record, must also explain each span.
-/// Spans overlap by half, so that a change on a boundary sits in the middle of another span.
-/// `phase` is scratch for the spans' phase, one after the other (see [`super::measure`]).
-pub(super) fn measure_spans(series: &[f64], tau0: f64, opts: &FitOptions, phase: &mut Vec<f64>) -> Vec<SpanMeasure> {
+/// The record is cut into `opts.spans` equal spans (fewer if a span would hold fewer than
+/// [`MIN_SPAN_SAMPLES`]; none below two). Why spans: the whole-record Allan variance averages over
+/// time. A noise burst only raises the white level, a bias step reads as a rate random walk, a
+/// warm-up as flicker and random walk; a stationary model then fits the whole record and still
+/// fails inside the span where the record is not stationary. The model, fitted once on the whole
+/// record, must also explain each span. Spans overlap by half, so that a change on a boundary
+/// sits in the middle of another span. Record and spans are measured in one pass
+/// ([`oavar_rate_variances_with_spans_in`]); `phase` is its scratch.
+pub(super) fn measure_with_spans(
+    series: &[f64],
+    tau0: f64,
+    factors: &[usize],
+    opts: &FitOptions,
+    phase: &mut Vec<f64>,
+) -> (Vec<AllanPoint>, Vec<usize>, Vec<SpanMeasure>) {
     let n = series.len();
     let count = opts.spans.min(n / MIN_SPAN_SAMPLES);
-    if count < 2 {
-        return Vec::new();
-    }
     // Half-overlapping: a change at a span boundary still falls in the middle of one span.
-    let bounds: Vec<(usize, usize)> = (0..2 * count - 1)
-        .map(|i| (i * n / (2 * count), (i + 2) * n / (2 * count)))
-        .collect();
-    bounds
-        .into_iter()
-        .map(|(a, b)| {
-            let max_m = ((b - a) as f64 * opts.max_m_fraction).floor() as usize;
-            let points = oavar_rate_bridged_variances_in(&series[a..b], tau0, &opts.grid.factors(max_m.max(1)), phase);
-            SpanMeasure {
-                span: Span {
-                    start_s: a as f64 * tau0,
-                    end_s: b as f64 * tau0,
-                },
-                points: points.into_iter().map(|p| p.point).collect(),
-            }
+    let spans: Vec<(std::ops::Range<usize>, Vec<usize>)> = if count < 2 {
+        Vec::new()
+    } else {
+        (0..2 * count - 1)
+            .map(|i| {
+                let (a, b) = (i * n / (2 * count), (i + 2) * n / (2 * count));
+                let max_m = ((b - a) as f64 * opts.max_m_fraction).floor() as usize;
+                (a..b, opts.grid.factors(max_m.max(1)))
+            })
+            .collect()
+    };
+    let (record, measured) = oavar_rate_variances_with_spans_in(series, tau0, factors, &spans, phase);
+    let bridged = record.iter().filter(|p| p.bridged).map(|p| p.point.m).collect();
+    let spans = spans
+        .iter()
+        .zip(measured)
+        .map(|((range, _), points)| SpanMeasure {
+            span: Span {
+                start_s: range.start as f64 * tau0,
+                end_s: range.end as f64 * tau0,
+            },
+            points: points.into_iter().map(|p| p.point).collect(),
         })
-        .collect()
+        .collect();
+    (record.into_iter().map(|p| p.point).collect(), bridged, spans)
 }
 
 /// The whole-record model of `fit` checked on one span: z at each of the span's τ (those with an
@@ -159,19 +172,29 @@ mod tests {
     fn spans_overlap_by_half_and_need_enough_samples() {
         let opts = FitOptions::default();
         // 4096 samples hold 4 spans of 1024 (not DEFAULT_SPANS = 8): 7 half-overlapping spans.
-        let series: Vec<f64> = (0..4096).map(|i| (i % 7) as f64).collect();
-        let spans = measure_spans(&series, 0.01, &opts, &mut Vec::new());
+        let series: Vec<f64> = (0..4096).map(|i| (i % 7) as f64 + 1e-3 * ((i * 7919) % 101) as f64).collect();
+        let factors = opts.grid.factors(4096 / 3);
+        let (record, bridged, spans) = measure_with_spans(&series, 0.01, &factors, &opts, &mut Vec::new());
+        assert!(bridged.is_empty());
+        let variances = |points: &[AllanPoint]| points.iter().map(|p| (p.m, p.tau, p.terms)).collect::<Vec<_>>();
+        // Measured in one pass, the record and each span are their own measurements, up to the
+        // order of the additions.
+        let close = |got: &[AllanPoint], want: &[AllanPoint]| {
+            assert_eq!(variances(got), variances(want));
+            for (g, w) in got.iter().zip(want) {
+                assert!((g.avar / w.avar - 1.0).abs() < 1e-9, "m = {}: {} vs {}", g.m, g.avar, w.avar);
+            }
+        };
+        close(&record, &oavar_rate(&series, 0.01, &factors));
         assert_eq!(spans.len(), 7);
         for (i, s) in spans.iter().enumerate() {
             let start = i as f64 * 512.0 * 0.01;
             assert_eq!(s.span, Span { start_s: start, end_s: start + 1024.0 * 0.01 });
             // Each span's Allan variance is that of its own 1024 samples, up to m = 1024/3.
-            let own = oavar_rate(&series[i * 512..i * 512 + 1024], 0.01, &opts.grid.factors(341));
-            let variances = |points: &[AllanPoint]| points.iter().map(|p| (p.m, p.tau, p.avar, p.terms)).collect::<Vec<_>>();
-            assert_eq!(variances(&s.points), variances(&own));
+            close(&s.points, &oavar_rate(&series[i * 512..i * 512 + 1024], 0.01, &opts.grid.factors(341)));
         }
         // Fewer than two spans' worth: no span check at all.
-        assert!(measure_spans(&series[..2047], 0.01, &opts, &mut Vec::new()).is_empty());
+        assert!(measure_with_spans(&series[..2047], 0.01, &factors, &opts, &mut Vec::new()).2.is_empty());
     }
 
     #[test]

@@ -209,15 +209,15 @@ pub struct RobustLevel {
     /// [`RobustLevel::median`], recomputed only when `at` moves: every row asks for it, and the
     /// median bin rarely changes.
     median: Option<f64>,
-    /// The last bin a value was placed in by its logarithm, and the values (lo, hi) that surely
-    /// fall in it too ([`RobustLevel::bin_of`]).
-    last: (f64, f64, usize),
+    /// The bin of the last value, where the next one is looked for first ([`RobustLevel::bin_of`]).
+    last: usize,
+    /// Per bin, the values (lo, hi) that surely fall in it ([`RobustLevel::bin_of`]), made the
+    /// first time a value is looked for in that bin; empty until then.
+    edges: Vec<(f64, f64)>,
 }
 
 const LEVEL_BIN: f64 = 0.01;
 const LEVEL_HALF_BINS: usize = 2000;
-/// No remembered bin: no value lies in [∞, −∞].
-const NO_BIN: (f64, f64, usize) = (f64::INFINITY, f64::NEG_INFINITY, 0);
 
 impl Default for RobustLevel {
     fn default() -> Self {
@@ -235,32 +235,54 @@ impl RobustLevel {
             at: LEVEL_HALF_BINS,
             below: 0,
             median: None,
-            last: NO_BIN,
+            last: LEVEL_HALF_BINS,
+            edges: Vec::new(),
         }
     }
 
     /// The bin of `value` (positive, finite) once `anchor` is set: round((ln value − anchor)/bin),
     /// clamped to the edge bins.
     ///
-    /// Why the remembered interval: consecutive rows' values (the F of windows one sample apart,
-    /// the short-τ Allan variance of those windows) mostly fall in the bin of the one before,
-    /// and inside that bin's interval, narrowed by a millionth of a bin on each side, no rounding
-    /// of the logarithm (a few 10⁻¹⁴ bins) can place a value elsewhere: the same bin as the
-    /// logarithm gives, without it (its latency was most of a row's `push`).
+    /// Why the bins' intervals: consecutive rows' values (the F of windows one sample apart, the
+    /// short-τ Allan variance of those windows) mostly fall in the bin of the one before or in
+    /// one beside it (a bin is 1 %; a row moves its value by about 1/W), and inside a bin's
+    /// interval, narrowed by a millionth of a bin on each side, no rounding of the logarithm (a
+    /// few 10⁻¹⁴ bins) can place a value elsewhere: the same bin as the logarithm gives, without
+    /// it. The last bin and its two neighbours are tried; each bin's interval is made once. With
+    /// the last bin alone, one value in eight needed the logarithm and new edges (3 % of
+    /// `fdavar analyze`); before that, the logarithm was most of a row's `push`.
     fn bin_of(&mut self, value: f64, anchor: f64) -> usize {
-        let (lo, hi, bin) = self.last;
-        if lo <= value && value <= hi {
-            return bin;
+        let last = self.last;
+        for bin in [last, last + 1, last.wrapping_sub(1)] {
+            if let Some((lo, hi)) = self.interval(bin, anchor) {
+                if lo <= value && value <= hi {
+                    self.last = bin;
+                    return bin;
+                }
+            }
         }
-        let (offset, bin) = bin_by_log(value, anchor);
-        self.last = if bin == 0 || bin == 2 * LEVEL_HALF_BINS {
-            NO_BIN // the edge bins hold everything beyond them
-        } else {
-            const MARGIN: f64 = 1e-6;
-            let edge = |side: f64| (anchor + (offset + side * (0.5 - MARGIN)) * LEVEL_BIN).exp();
-            (edge(-1.0), edge(1.0), bin)
-        };
+        let (_, bin) = bin_by_log(value, anchor);
+        self.last = bin;
         bin
+    }
+
+    /// The values that surely fall in `bin` (see [`RobustLevel::bin_of`]); `None` for the edge
+    /// bins, which hold everything beyond them, and for no bin.
+    fn interval(&mut self, bin: usize, anchor: f64) -> Option<(f64, f64)> {
+        if bin == 0 || bin >= 2 * LEVEL_HALF_BINS {
+            return None;
+        }
+        if self.edges.is_empty() {
+            self.edges = vec![(f64::NAN, f64::NAN); 2 * LEVEL_HALF_BINS + 1];
+        }
+        let edges = &mut self.edges[bin];
+        if edges.0.is_nan() {
+            const MARGIN: f64 = 1e-6;
+            let offset = bin as f64 - LEVEL_HALF_BINS as f64;
+            let edge = |side: f64| (anchor + (offset + side * (0.5 - MARGIN)) * LEVEL_BIN).exp();
+            *edges = (edge(-1.0), edge(1.0));
+        }
+        Some(*edges)
     }
 
     /// Adds a value; values that are not positive and finite are ignored.
@@ -361,7 +383,8 @@ mod tests {
     fn a_remembered_bin_is_the_bin_of_the_logarithm() {
         // Values on and a few ulps around every bin edge within ±30 bins of the anchor, and
         // random ones, each placed right after a neighbour (so that the remembered bin is the
-        // one beside or the same): the bin must be the logarithm's every time.
+        // one beside or the same): the bin must be the logarithm's every time, whether found in
+        // a remembered interval or not.
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         let anchor = 1.7e-6_f64.ln();
         let edges = (-30..30).map(|k| (anchor + (k as f64 + 0.5) * LEVEL_BIN).exp());
@@ -375,7 +398,10 @@ mod tests {
         let (mut remembered, mut placed) = (0, 0);
         for pair in values.windows(2) {
             for &v in pair {
-                let hit = level.last.0 <= v && v <= level.last.1;
+                let last = level.last;
+                let hit = [last, last + 1, last.wrapping_sub(1)]
+                    .iter()
+                    .any(|&b| level.edges.get(b).is_some_and(|&(lo, hi)| lo <= v && v <= hi));
                 let bin = level.bin_of(v, anchor);
                 assert_eq!(bin, bin_by_log(v, anchor).1, "{v:e}");
                 remembered += usize::from(hit);

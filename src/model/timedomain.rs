@@ -1166,9 +1166,7 @@ pub fn step_scan(y: &[f64], noise: &NoiseSpectrum) -> Option<StepScan> {
         return None;
     }
     let prefix = FinitePrefix::new(y);
-    let (index, size, inflate) = (w..=n - w)
-        .filter_map(|i| prefix.contrast(i, w).map(|(d, inflate)| (i, d, inflate)))
-        .max_by(|a, b| (a.1 * a.1 / a.2).total_cmp(&(b.1 * b.1 / b.2)))?;
+    let (index, size, inflate) = prefix.best_contrast(w)?;
     let wf = w as f64;
     let wt = wf * tau0;
     let lambda2 = ((4.0 * noise.rate_structure(wt) - noise.rate_structure(2.0 * wt)) / (wf * wf) / var_d).max(0.0);
@@ -1259,6 +1257,30 @@ impl FinitePrefix {
     /// conservative for coloured). `None` when a window is less than half finite.
     fn contrast(&self, i: usize, w: usize) -> Option<(f64, f64)> {
         self.contrast_between(i, w, w)
+    }
+
+    /// The largest contrast D²/inflate of [`FinitePrefix::contrast`] over i = w ..= n − w (the
+    /// last of equals): (i, D, inflate).
+    ///
+    /// Why a loop of its own without gaps: each window then holds w finite samples, D is
+    /// (S[i+w] − S[i])/w − (S[i] − S[i−w])/w and the inflation 1, the same operations as the
+    /// general path's without its branches, over every sample of the record.
+    fn best_contrast(&self, w: usize) -> Option<(usize, f64, f64)> {
+        let n = self.sum.len() - 1;
+        if self.count.is_some() {
+            return (w..=n - w)
+                .filter_map(|i| self.contrast(i, w).map(|(d, inflate)| (i, d, inflate)))
+                .max_by(|a, b| (a.1 * a.1 / a.2).total_cmp(&(b.1 * b.1 / b.2)));
+        }
+        let (s, wf) = (&self.sum, w as f64);
+        let mut best: Option<(usize, f64, f64)> = None;
+        for i in w..=n - w {
+            let d = (s[i + w] - s[i]) / wf - (s[i] - s[i - w]) / wf;
+            if best.is_none_or(|(_, b, _)| (d * d).total_cmp(&(b * b)).is_ge()) {
+                best = Some((i, d, 1.0));
+            }
+        }
+        best
     }
 
     /// [`FinitePrefix::contrast`] with `before` samples before `i` and `after` from it: the
@@ -1812,6 +1834,40 @@ mod tests {
         let r = Whitened::new(&y, &spectrum).unwrap().regress(&x).unwrap();
         assert!((r.coefficient - 2e-3).abs() < 4.0 * r.sigma, "{r:?}");
         assert!(r.t2 > 100.0, "{r:?}");
+    }
+
+    #[test]
+    fn the_gap_free_contrast_scan_is_the_general_one() {
+        // Without gaps the scan's own loop must pick the contrast the general path picks (the
+        // last of equal maxima), bit for bit; with a gap the general path runs.
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let mut y: Vec<f64> = (0..5000)
+            .map(|i| {
+                let v: f64 = StandardNormal.sample(&mut rng);
+                v + if i > 3100 { 1.5 } else { 0.0 }
+            })
+            .collect();
+        let general = |p: &FinitePrefix, w: usize| {
+            let n = p.sum.len() - 1;
+            (w..=n - w)
+                .filter_map(|i| p.contrast(i, w).map(|(d, inflate)| (i, d, inflate)))
+                .max_by(|a, b| (a.1 * a.1 / a.2).total_cmp(&(b.1 * b.1 / b.2)))
+        };
+        for w in [2, 3, 50, 700] {
+            let prefix = FinitePrefix::new(&y);
+            let (got, want) = (prefix.best_contrast(w).unwrap(), general(&prefix, w).unwrap());
+            assert_eq!((got.0, got.1.to_bits(), got.2.to_bits()), (want.0, want.1.to_bits(), want.2.to_bits()), "w = {w}");
+        }
+        assert_eq!(FinitePrefix::new(&y).best_contrast(50).unwrap().0 / 100, 31);
+        // A square wave: equal maxima at every edge, the last one is taken.
+        let square: Vec<f64> = (0..60).map(|i| ((i / 3) % 2) as f64).collect();
+        let prefix = FinitePrefix::new(&square);
+        let (got, want) = (prefix.best_contrast(3).unwrap(), general(&prefix, 3).unwrap());
+        assert_eq!((got.0, got.1.to_bits()), (want.0, want.1.to_bits()));
+        assert_eq!(got.0, 57);
+        y[2000] = f64::NAN;
+        let prefix = FinitePrefix::new(&y);
+        assert_eq!(prefix.best_contrast(50), general(&prefix, 50));
     }
 
     #[test]

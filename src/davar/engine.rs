@@ -131,11 +131,6 @@ pub struct DavarEngine {
     /// then the number of terms complete at its position, and the first invalid sample fills
     /// them in (a gap-free record never does).
     counts_held: bool,
-    /// Scratch of [`DavarEngine::row`], one value per factor: the window's sum of squared second
-    /// differences, their count, and the Allan variance.
-    sums: Vec<f64>,
-    counts: Vec<u64>,
-    avars: Vec<f64>,
     /// The pending analysis index and its window.
     t: u64,
     w: usize,
@@ -262,9 +257,6 @@ impl DavarEngine {
             term_sums: vec![0.0; 2 * len * factors.len()],
             term_counts: vec![0; 2 * len * factors.len()],
             counts_held: false,
-            sums: vec![0.0; factors.len()],
-            counts: vec![0; factors.len()],
-            avars: vec![0.0; factors.len()],
             t: (w / 2) as u64,
             w,
             excluded_total: 0,
@@ -504,21 +496,16 @@ impl DavarEngine {
         let w = self.w;
         // The factors are ascending: those with 3m ≤ W are the first `used`.
         let used = self.factors.partition_point(|&m| 3 * m <= w);
-        // First every factor's window sum, count and quotient, then the points: a loop without
-        // branches or calls lets the divisions of several factors overlap (they were the row's
-        // latency, one after the other); each quotient is the same operation on the same values.
         let span = 2 * self.len;
-        let (sums, counts, avars) = (&mut self.sums[..used], &mut self.counts[..used], &mut self.avars[..used]);
+        // The terms starting in [a, a + total) are those completed between the positions
+        // e − total and e (the prefixes are stored where their latest term completed).
         let lanes = &self.term_sums;
-        for (i, &m) in self.factors[..used].iter().enumerate() {
-            // The terms starting in [a, a + total) are those completed between the positions
-            // e − total and e (the prefixes are stored where their latest term completed).
+        let window_sum = |i: usize, m: usize| {
             let (total, at) = (w - 2 * m + 1, i * span + e);
-            sums[i] = (lanes[at] - lanes[at - total]).max(0.0);
-        }
-        let full = valid == w;
+            (lanes[at] - lanes[at - total]).max(0.0)
+        };
         let mut excluded = 0usize;
-        let layout = if full {
+        let layout = if valid == w {
             // Every sample of the window is valid, so is every term, and no factor is left out:
             // the window's layout and divisors, made once per window.
             let slot = w % MEMO_SLOTS;
@@ -533,31 +520,24 @@ impl DavarEngine {
                     self.factors[..used].iter().zip(&self.scales).map(|(&m, scale)| 1.0 / (scale.two_m2 * (w - 2 * m + 1) as f64)),
                 );
             }
-            // A product instead of a quotient per factor: the divisions were the row's latency.
-            for ((avar, &sum), &inverse) in avars.iter_mut().zip(sums.iter()).zip(&self.inverse_divisors[slot]) {
-                *avar = sum * inverse;
-            }
-            avars_out.extend_from_slice(avars);
+            // σ² = sum × 1/(2m²·terms): a product per factor, without branches or calls, straight
+            // into the row (the quotients were the row's latency).
+            let factors = self.factors[..used].iter().zip(&self.inverse_divisors[slot]);
+            avars_out.extend(factors.enumerate().map(|(i, (&m, &inverse))| window_sum(i, m) * inverse));
             Arc::clone(&self.layouts[slot])
         } else {
-            let lanes = &self.term_counts;
-            for (i, &m) in self.factors[..used].iter().enumerate() {
-                let at = i * span + e;
-                counts[i] = lanes[at] - lanes[at - (w - 2 * m + 1)];
-            }
+            let counts = &self.term_counts;
             let (memo, shared) = (&mut self.interval_of, &self.intervals);
             let mut points = Vec::with_capacity(used);
-            for (i, ((&m, scale), (&count, avar))) in
-                self.factors.iter().zip(&self.scales).zip(counts.iter().zip(avars.iter_mut())).enumerate()
-            {
-                let terms = count as usize;
+            for (i, (&m, scale)) in self.factors[..used].iter().zip(&self.scales).enumerate() {
+                let at = i * span + e;
+                let terms = (counts[at] - counts[at - (w - 2 * m + 1)]) as usize;
                 excluded += w - 2 * m + 1 - terms;
                 if terms > 0 {
                     // Through i64: a count is far below 2⁵³, so the value is the same, and the
                     // conversion is one instruction (u64's is a sequence).
-                    *avar = sums[i] / (scale.two_m2 * count as i64 as f64);
+                    avars_out.push(window_sum(i, m) / (scale.two_m2 * terms as i64 as f64));
                     points.push(PointLayout::of(i, m, scale, terms, w, memo, shared));
-                    avars_out.push(*avar);
                 }
             }
             Arc::new(RowLayout { window: 0, points })

@@ -174,9 +174,10 @@ pub fn oavar_rate_variances_with_spans_in(
     if !(tau0.is_finite() && tau0 > 0.0) || rate.is_empty() || !rate.iter().all(|v| v.is_finite()) {
         return separately(phase);
     }
-    let Some(_) = rate_sums(rate, tau0, &[], false, phase) else {
+    // The record's phase, built in `phase` as the record's own measurement builds it.
+    if rate_sums(rate, tau0, &[], false, phase).is_none() {
         return separately(phase);
-    };
+    }
     let x: &[f64] = phase;
     // Each target: the terms [start, end) it sums (its phase has len + 1 points, its terms
     // i ≤ len − 2m) at factor m. Target 0 is the record.

@@ -592,6 +592,29 @@ mod tests {
             }
         }
 
+        // The AVX2 build of the kernel adds the same lanes in the same order as the baseline
+        // build: the same bits on every CPU (on a CPU without AVX2 there is nothing to compare).
+        #[test]
+        fn avx2_and_baseline_sums_are_the_same_bits(y in prop::collection::vec(-10f64..10.0, 20..700), m in 1usize..9, hole in prop::option::of(0usize..700)) {
+            let x: Vec<f64> = std::iter::once(0.0).chain(y.iter().scan(0.0, |acc, &v| { *acc += v; Some(*acc) })).collect();
+            let bad: Vec<usize> = (0..x.len()).map(|k| usize::from(hole.is_some_and(|h| h % y.len() < k))).collect();
+            prop_assume!(x.len() > 2 * m);
+            let range = 0..x.len() - 2 * m;
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx2") {
+                for checked in [false, true] {
+                    let (wide, base) = if checked {
+                        // SAFETY: AVX2 is supported (checked above).
+                        (unsafe { interleaved_avx2::<true>(&x, &bad, m, range.clone()) }, interleaved::<true>(&x, &bad, m, range.clone()))
+                    } else {
+                        // SAFETY: as above.
+                        (unsafe { interleaved_avx2::<false>(&x, &[], m, range.clone()) }, interleaved::<false>(&x, &[], m, range.clone()))
+                    };
+                    prop_assert_eq!((wide.sum.to_bits(), wide.terms, wide.skipped), (base.sum.to_bits(), base.terms, base.skipped));
+                }
+            }
+        }
+
         // Record and spans in one pass: each is its own measurement up to the order of the
         // additions, point for point; with an invalid sample, exactly the separate measurements.
         #[test]

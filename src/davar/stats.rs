@@ -115,11 +115,7 @@ impl IntervalCache {
     /// `(edf, lo, hi)` for `terms` squared differences at averaging factor `m`.
     pub fn factors(&mut self, m: usize, terms: usize) -> IntervalFactors {
         let (p_low, edf_of) = (self.p_low, self.edf);
-        *self.by_key.entry((m, terms)).or_insert_with(|| {
-            let edf = edf_of(m, terms);
-            let (lo, hi) = chi2_factors(edf, p_low);
-            (edf, lo, hi)
-        })
+        *self.by_key.entry((m, terms)).or_insert_with(|| computed(p_low, edf_of, m, terms))
     }
 
     /// An [`AllanPoint`] with its EDF and interval.
@@ -211,10 +207,32 @@ impl Default for SharedIntervals {
 
 impl SharedIntervals {
     /// [`IntervalCache::factors`] of the shared cache.
+    ///
+    /// The χ² inversions of a pair not cached yet are made without the lock. Why: the two row
+    /// workers of `fdavar analyze` meet most of their pairs in the first windows, together, and
+    /// an inversion under the lock kept the other worker waiting: `perf sched timehist` showed one
+    /// core idle for most of 20 ms near the start, the waiting worker waking every 10 µs. Two
+    /// workers may then invert the same pair: the same numbers, the first one kept.
     pub fn factors(&self, m: usize, terms: usize) -> IntervalFactors {
         // A panic while holding the lock leaves the map whole (an entry is inserted complete).
-        self.0.lock().unwrap_or_else(PoisonError::into_inner).factors(m, terms)
+        let lock = || self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        let (p_low, edf_of) = {
+            let cache = lock();
+            if let Some(&known) = cache.by_key.get(&(m, terms)) {
+                return known;
+            }
+            (cache.p_low, cache.edf)
+        };
+        let made = computed(p_low, edf_of, m, terms);
+        *lock().by_key.entry((m, terms)).or_insert(made)
     }
+}
+
+/// `(edf, lo, hi)` of [`IntervalCache::factors`], computed.
+fn computed(p_low: f64, edf_of: fn(usize, usize) -> f64, m: usize, terms: usize) -> IntervalFactors {
+    let edf = edf_of(m, terms);
+    let (lo, hi) = chi2_factors(edf, p_low);
+    (edf, lo, hi)
 }
 
 #[cfg(test)]

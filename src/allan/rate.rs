@@ -179,12 +179,11 @@ pub fn oavar_rate_variances_with_spans_in(
         return separately(phase);
     }
     let x: &[f64] = phase;
-    // Each target: the terms [start, end) it sums (its phase has len + 1 points, its terms
-    // i ≤ len − 2m) at factor m. Target 0 is the record.
-    let targets: Vec<(usize, &[usize])> = std::iter::once((0, factors))
-        .chain(spans.iter().map(|(r, f)| (r.start, f.as_slice())))
+    // Each target: its samples and factors; at factor m it sums the terms [start, end) (its
+    // phase has len + 1 points, its terms i ≤ len − 2m). Target 0 is the record.
+    let targets: Vec<(std::ops::Range<usize>, &[usize])> = std::iter::once((0..rate.len(), factors))
+        .chain(spans.iter().map(|(r, f)| (r.clone(), f.as_slice())))
         .collect();
-    let lens: Vec<usize> = std::iter::once(rate.len()).chain(spans.iter().map(|(r, _)| r.len())).collect();
     let mut sums: Vec<Vec<(usize, Terms)>> = vec![Vec::new(); targets.len()];
     let mut all: Vec<usize> = targets.iter().flat_map(|&(_, f)| f.iter().copied()).filter(|&m| m > 0).collect();
     all.sort_unstable();
@@ -192,10 +191,9 @@ pub fn oavar_rate_variances_with_spans_in(
     for m in all {
         let ranges: Vec<(usize, std::ops::Range<usize>)> = targets
             .iter()
-            .zip(&lens)
             .enumerate()
-            .filter(|(_, (&(_, f), &len))| f.contains(&m) && len + 1 > 2 * m)
-            .map(|(t, (&(start, _), &len))| (t, start..start + len + 1 - 2 * m))
+            .filter(|(_, (samples, f))| f.contains(&m) && samples.len() + 1 > 2 * m)
+            .map(|(t, (samples, _))| (t, samples.start..samples.end + 1 - 2 * m))
             .collect();
         let mut cuts: Vec<usize> = ranges.iter().flat_map(|(_, r)| [r.start, r.end]).collect();
         cuts.sort_unstable();

@@ -55,7 +55,7 @@ pub use types::{
     AxisInput, Event, FitError, FitOptions, FitPoint, FittedModel, FittedTerm, ParamValue, Span,
 };
 
-use crate::allan::{oavar_rate_bridged_variances_in, AllanPoint};
+use crate::allan::{oavar_rate_bridged_variances_in, AllanPoint, RatePoint};
 use crate::model::effects::{unit_on_axis, Domain, EffectKind};
 use crate::model::measure::NoiseClass;
 use crate::model::spec::ModelSpec;
@@ -89,7 +89,11 @@ pub fn fit(
 /// σ² and terms only ([`oavar_rate_bridged_variances_in`]): the fit takes each τ's EDF from its
 /// model's noise mix.
 fn measure(series: &[f64], tau0: f64, factors: &[usize], phase: &mut Vec<f64>) -> (Vec<AllanPoint>, Vec<usize>) {
-    let points = oavar_rate_bridged_variances_in(series, tau0, factors, phase);
+    with_bridged(oavar_rate_bridged_variances_in(series, tau0, factors, phase))
+}
+
+/// The points the fit reads, and the factors among them that were bridged.
+fn with_bridged(points: Vec<RatePoint>) -> (Vec<AllanPoint>, Vec<usize>) {
     let bridged = points.iter().filter(|p| p.bridged).map(|p| p.point.m).collect();
     (points.into_iter().map(|p| p.point).collect(), bridged)
 }

@@ -83,7 +83,6 @@ pub(super) fn measure_with_spans(
             .collect()
     };
     let (record, measured) = oavar_rate_variances_with_spans_in(series, tau0, factors, &spans, phase);
-    let bridged = record.iter().filter(|p| p.bridged).map(|p| p.point.m).collect();
     let spans = spans
         .iter()
         .zip(measured)
@@ -95,7 +94,8 @@ pub(super) fn measure_with_spans(
             points: points.into_iter().map(|p| p.point).collect(),
         })
         .collect();
-    (record.into_iter().map(|p| p.point).collect(), bridged, spans)
+    let (points, bridged) = super::with_bridged(record);
+    (points, bridged, spans)
 }
 
 /// The whole-record model of `fit` checked on one span: z at each of the span's τ (those with an

@@ -130,12 +130,15 @@ impl AxisReport {
 pub fn measured_points(fit: &FittedModel) -> Vec<MeasuredPoint> {
     fit.points
         .iter()
-        .map(|p| MeasuredPoint {
-            tau: p.tau,
-            dev: p.measured.sqrt(),
-            dev_low: p.ci.0.max(0.0).sqrt(),
-            dev_high: p.ci.1.sqrt(),
-            bridged: p.bridged,
+        .map(|p| {
+            let (low, high) = p.ci();
+            MeasuredPoint {
+                tau: p.tau,
+                dev: p.measured.sqrt(),
+                dev_low: low.max(0.0).sqrt(),
+                dev_high: high.sqrt(),
+                bridged: p.bridged,
+            }
         })
         .collect()
 }

@@ -203,7 +203,7 @@ pub const ALLAN_CSV_COLUMNS: [&str; 8] =
 /// z = (σ²_meas − σ²_model) / (σ²_model·√(2/edf))
 /// ```
 /// where σ²_meas, σ²_model and ci are the fit's [`crate::model::fit::FitPoint`] fields
-/// (`measured`, `model`, `ci`); they are the figure's values
+/// (`measured`, `model`, `ci()`); they are the figure's values
 /// ([`crate::model::output::allan_figure`]).
 pub fn allan_table(f: &FittedModel) -> Table {
     let mut t = Table::new(ALLAN_CSV_COLUMNS);

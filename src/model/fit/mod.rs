@@ -457,7 +457,7 @@ mod tests {
         // bits: statrs' inversion gives a NaN lower bound at the EDF of ~10⁶ of the shortest τ).
         let bits = |(lo, hi): (f64, f64)| (lo.to_bits(), hi.to_bits());
         for p in &fit.points {
-            assert_eq!(bits(p.ci), bits(chi2_interval(p.measured, p.edf)));
+            assert_eq!(bits(p.ci()), bits(chi2_interval(p.measured, p.edf)));
         }
     }
 

@@ -18,7 +18,7 @@ use super::types::{term_of, FitError, FitPoint};
 use super::CurveFit;
 use crate::allan::AllanPoint;
 use crate::model::effects::{Effect, EffectKind};
-use crate::model::measure::{chi2_interval, edf_for_mix, NoiseClass};
+use crate::model::measure::{edf_for_mix, NoiseClass};
 use crate::model::nnls::nnls;
 use nalgebra::{DMatrix, DVector};
 
@@ -279,7 +279,6 @@ impl<'a> Problem<'a> {
                 measured: p.avar,
                 model: sol.model[i],
                 edf: sol.edf[i],
-                ci: chi2_interval(p.avar, sol.edf[i]),
                 z: sol.z[i],
                 bridged: false,
             })

@@ -202,7 +202,7 @@ mod tests {
         // A model of one white term, σ² = 1 at every τ of the fit; the span measures 1.1.
         let fit_points: Vec<FitPoint> = [1usize, 2, 4]
             .iter()
-            .map(|&m| FitPoint { m, tau: m as f64, measured: 1.0, model: 1.0, edf: 100.0, ci: (0.9, 1.1), z: 0.0, bridged: false })
+            .map(|&m| FitPoint { m, tau: m as f64, measured: 1.0, model: 1.0, edf: 100.0, z: 0.0, bridged: false })
             .collect();
         let fit = CurveFit {
             terms: vec![FittedTerm {

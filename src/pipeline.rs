@@ -487,11 +487,11 @@ impl Pipeline {
     /// Why not a loop of `recycle(row)` over `rows.drain(..)`: each row (about 150 bytes) would be
     /// copied out of the vector and into the call, a `memmove` per row and axis: 2.7 % of
     /// `fdavar analyze`'s CPU (`perf record --call-graph dwarf`). Here only each row's variance
-    /// vector moves.
+    /// vector and layout move.
     pub fn recycle_all(&mut self, rows: &mut Vec<AxisRow>) {
         for row in rows.iter_mut() {
             if let Some(engine) = self.engine_of(row.axis) {
-                engine.recycle_avars(std::mem::take(&mut row.row.avars));
+                engine.recycle_parts(std::mem::take(&mut row.row.avars), row.row.layout.take());
             }
         }
         rows.clear();

@@ -117,8 +117,10 @@ pub struct DavarRow {
     pub excluded_terms: usize,
     /// σ²(τ) of each point of `layout`.
     pub(crate) avars: Vec<f64>,
-    /// What the points share with the other rows of this window.
-    pub(crate) layout: Arc<RowLayout>,
+    /// What the points share with the other rows of this window; `None` only in a row whose
+    /// parts were handed back to its engine ([`crate::pipeline::Pipeline::recycle_all`]), which
+    /// then has no points.
+    pub(crate) layout: Option<Arc<RowLayout>>,
 }
 
 /// The points of a row but their Allan variance: what the rows of one window share.
@@ -161,7 +163,8 @@ impl DavarRow {
     /// Overlapping Allan variance of the cut at each τ of the grid with 3m ≤ W and at least one
     /// valid term, ascending in τ.
     pub fn points(&self) -> impl ExactSizeIterator<Item = AllanPoint> + '_ {
-        self.layout.points.iter().zip(&self.avars).map(|(l, &avar)| l.point(avar))
+        let layout = self.layout.as_deref().map_or(&[][..], |l| &l.points[..]);
+        layout.iter().zip(&self.avars).map(|(l, &avar)| l.point(avar))
     }
 
     /// The point at the shortest τ (the one the change detector reads), if the row has any.
@@ -190,7 +193,7 @@ impl DavarRow {
         };
         DavarRow {
             avars: points.iter().map(|p| p.avar).collect(),
-            layout: Arc::new(layout),
+            layout: Some(Arc::new(layout)),
             ..DavarRow::default()
         }
     }
@@ -298,7 +301,8 @@ mod tests {
     fn rows_of_one_full_window_share_their_layout_and_read_back_from_json() {
         let rows = rows();
         let full: Vec<&DavarRow> = rows.iter().filter(|r| r.valid_samples == r.window).collect();
-        assert!(full.windows(2).all(|p| Arc::ptr_eq(&p[0].layout, &p[1].layout)));
+        let shared = |a: &DavarRow, b: &DavarRow| matches!((&a.layout, &b.layout), (Some(x), Some(y)) if Arc::ptr_eq(x, y));
+        assert!(full.windows(2).all(|p| shared(&p[0], &p[1])));
         for row in [full[0], rows.iter().find(|r| r.valid_samples < r.window).unwrap()] {
             // serde_json reads a float back to within an ulp or two.
             let near = |a: f64, b: f64| (a - b).abs() <= 1e-14 * b.abs();

@@ -263,6 +263,11 @@ mod tests {
 
     /// Rows of a record with a gap: full windows (shared layouts) and windows with invalid samples.
     fn rows() -> Vec<DavarRow> {
+        rows_recycling(false)
+    }
+
+    /// [`rows`], each row handed back to the engine after a copy is kept when `recycle`.
+    fn rows_recycling(recycle: bool) -> Vec<DavarRow> {
         let cfg = EngineConfig {
             factors: vec![1, 2, 3, 5, 8],
             tau0: 0.01,
@@ -270,12 +275,25 @@ mod tests {
             f_target: FTarget::Value(1.0),
         };
         let mut engine = DavarEngine::new(cfg, Box::new(FixedWindow::new(31))).unwrap();
-        let mut rows = Vec::new();
+        let (mut rows, mut out) = (Vec::new(), Vec::new());
         for k in 0..200u64 {
             let v = (k * 7919 % 101) as f64 * 1e-3;
-            engine.push((!(90..94).contains(&k)).then_some(v), &mut rows);
+            engine.push((!(90..94).contains(&k)).then_some(v), &mut out);
+            for row in out.drain(..) {
+                rows.push(row.clone());
+                if recycle {
+                    engine.recycle(row);
+                }
+            }
         }
         rows
+    }
+
+    #[test]
+    fn recycled_rows_lend_their_memory_and_layout_without_changing_a_row() {
+        // A gap in the record: full windows before and after it, whose rows take over the layout
+        // handed back, and rows with invalid samples between, which make their own.
+        assert_eq!(rows_recycling(true), rows_recycling(false));
     }
 
     #[test]
@@ -302,7 +320,7 @@ mod tests {
         let rows = rows();
         let full: Vec<&DavarRow> = rows.iter().filter(|r| r.valid_samples == r.window).collect();
         let shared = |a: &DavarRow, b: &DavarRow| matches!((&a.layout, &b.layout), (Some(x), Some(y)) if Arc::ptr_eq(x, y));
-        assert!(full.windows(2).all(|p| shared(&p[0], &p[1])));
+        assert!(full.windows(2).all(|p| shared(p[0], p[1])));
         for row in [full[0], rows.iter().find(|r| r.valid_samples < r.window).unwrap()] {
             // serde_json reads a float back to within an ulp or two.
             let near = |a: f64, b: f64| (a - b).abs() <= 1e-14 * b.abs();

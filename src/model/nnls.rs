@@ -49,6 +49,25 @@ pub enum NnlsError {
 /// assert!((x[0] - 1.5).abs() < 1e-12 && x[1] == 0.0);
 /// ```
 pub fn nnls(a: &DMatrix<f64>, b: &DVector<f64>) -> Result<DVector<f64>, NnlsError> {
+    nnls_from(a, b, &mut Vec::new())
+}
+
+/// [`nnls`] started from a guess of which variables are positive at the optimum, e.g. the answer
+/// to a neighbouring problem: `passive` holds the guess (empty: none) and receives this answer's.
+///
+/// The answer is the one [`nnls`] gives. At its optimum the active-set iteration ends with the
+/// least-squares solution on the positive variables, no more; a guess is taken only when that
+/// solution is positive and no other variable's gradient would enter, which is where the
+/// iteration from nothing stops, so the final solve is the same computation. Otherwise the
+/// iteration runs from nothing.
+///
+/// Why: the fit solves a sequence of problems that differ a little (its reweighting rounds,
+/// the points of a scan), and from nothing each costs one solve per variable added, the largest
+/// last; a right guess costs that last one alone.
+///
+/// # Errors
+/// As [`nnls`].
+pub fn nnls_from(a: &DMatrix<f64>, b: &DVector<f64>, passive: &mut Vec<bool>) -> Result<DVector<f64>, NnlsError> {
     let (rows, cols) = a.shape();
     if rows != b.len() {
         return Err(NnlsError::Shape { rows, len: b.len() });
@@ -73,9 +92,9 @@ pub fn nnls(a: &DMatrix<f64>, b: &DVector<f64>) -> Result<DVector<f64>, NnlsErro
         let qr = s.qr();
         let mut qtb = b.clone();
         qr.q_tr_mul(&mut qtb);
-        lawson_hanson(&qr.unpack_r(), &qtb.rows(0, cols).into_owned(), &usable, tol)
+        lawson_hanson(&qr.unpack_r(), &qtb.rows(0, cols).into_owned(), &usable, tol, passive)
     } else {
-        lawson_hanson(&s, b, &usable, tol)
+        lawson_hanson(&s, b, &usable, tol, passive)
     };
     Ok(DVector::from_iterator(
         cols,
@@ -83,12 +102,24 @@ pub fn nnls(a: &DMatrix<f64>, b: &DVector<f64>) -> Result<DVector<f64>, NnlsErro
     ))
 }
 
-/// The active-set iteration on a column-scaled matrix.
+/// The active-set iteration on a column-scaled matrix, unless `passive` (see [`nnls_from`]) is
+/// its answer; `passive` receives the answer's positive variables.
 /// `tol`: the gradient a column must exceed to enter, and the value under which it leaves.
-fn lawson_hanson(a: &DMatrix<f64>, b: &DVector<f64>, usable: &[bool], tol: f64) -> DVector<f64> {
+fn lawson_hanson(a: &DMatrix<f64>, b: &DVector<f64>, usable: &[bool], tol: f64, passive: &mut Vec<bool>) -> DVector<f64> {
     let cols = a.ncols();
+    if passive.len() == cols && passive.iter().any(|&p| p) {
+        let s = solve_passive(a, b, passive);
+        let positive = (0..cols).filter(|&j| passive[j]).all(|j| usable[j] && s[j] > 0.0);
+        if positive {
+            let w = a.tr_mul(&(b - a * &s));
+            if !(0..cols).any(|j| usable[j] && !passive[j] && w[j] > tol) {
+                return s;
+            }
+        }
+    }
+    passive.clear();
+    passive.resize(cols, false);
     let mut x = DVector::zeros(cols);
-    let mut passive = vec![false; cols];
     let max_outer = 3 * cols + 10;
     for _ in 0..max_outer {
         let w = a.tr_mul(&(b - a * &x));
@@ -99,7 +130,7 @@ fn lawson_hanson(a: &DMatrix<f64>, b: &DVector<f64>, usable: &[bool], tol: f64) 
         passive[t] = true;
         let mut added_once = false;
         for _ in 0..max_outer {
-            let s = solve_passive(a, b, &passive);
+            let s = solve_passive(a, b, passive);
             let all_positive = (0..cols).filter(|&j| passive[j]).all(|j| s[j] > 0.0);
             if all_positive {
                 x = s;
@@ -174,6 +205,35 @@ mod tests {
             let x = nnls(&a, &b).unwrap();
             assert_kkt(&a, &b, &x);
         }
+    }
+
+    #[test]
+    fn a_guess_gives_the_answer_from_nothing_bit_for_bit() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let (mut taken, mut wrong) = (0, 0);
+        for _ in 0..300 {
+            let rows = rng.random_range(6..40);
+            let cols = rng.random_range(1..6);
+            let a = DMatrix::from_fn(rows, cols, |_, _| rng.random_range(-1.0..1.0));
+            let b = DVector::from_fn(rows, |_, _| rng.random_range(-1.0..1.0));
+            let want = nnls(&a, &b).unwrap();
+            let right: Vec<bool> = want.iter().map(|&x| x > 0.0).collect();
+            // The answer's own set, a random set, every column, and none.
+            let random: Vec<bool> = (0..cols).map(|_| rng.random_bool(0.5)).collect();
+            for guess in [right.clone(), random, vec![true; cols], Vec::new()] {
+                let mut passive = guess.clone();
+                let got = nnls_from(&a, &b, &mut passive).unwrap();
+                let bits = |v: &DVector<f64>| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&got), bits(&want), "guess {guess:?}");
+                assert_eq!(passive, right, "the answer's positive variables come back");
+                if guess == right && right.iter().any(|&p| p) {
+                    taken += 1;
+                } else if guess != right {
+                    wrong += 1;
+                }
+            }
+        }
+        assert!(taken > 100 && wrong > 100, "{taken} right guesses, {wrong} wrong ones");
     }
 
     #[test]

@@ -19,7 +19,8 @@ use super::CurveFit;
 use crate::allan::AllanPoint;
 use crate::model::effects::{Effect, EffectKind};
 use crate::model::measure::{edf_for_mix, NoiseClass};
-use crate::model::nnls::nnls;
+use crate::model::nnls::nnls_from;
+use std::cell::Cell;
 use nalgebra::{DMatrix, DVector};
 
 /// Fewest periods a line (a shape parameter in Hz without a range of its own) has in the record:
@@ -52,6 +53,9 @@ pub(super) struct Problem<'a> {
     /// Peaks of the samples' periodogram, (frequency, bin width) in Hz: extra candidates of
     /// every frequency's scan (see [`Problem::search_shapes`]).
     pub(super) line_hints: Vec<(f64, f64)>,
+    /// The columns with a positive amplitude in the latest NNLS: the next one's guess
+    /// ([`nnls_from`]; the same answers, fewer solves), the searches' trials being neighbours.
+    positive: Cell<Vec<bool>>,
 }
 
 /// A weighted NNLS solution at fixed shape parameters.
@@ -110,6 +114,7 @@ impl<'a> Problem<'a> {
             output: None,
             muted: Vec::new(),
             line_hints: Vec::new(),
+            positive: Cell::new(Vec::new()),
         };
         for j in 0..problem.columns.len() {
             let shapes = problem.initial_shapes();
@@ -185,6 +190,7 @@ impl<'a> Problem<'a> {
         let mut model = meas.clone();
         let mut c = vec![0.0; jn];
         let mut best_cost = f64::INFINITY;
+        let mut positive = self.positive.take();
         for _ in 0..iterations {
             // Iteratively reweighted Gauss–Newton on [`log_cost`], linearised around the current
             // model: target tᵢ = modelᵢ·(1 + ln(measᵢ/modelᵢ)), weight 1/(modelᵢ·√(2/wᵢ)) with
@@ -207,7 +213,7 @@ impl<'a> Problem<'a> {
                 .collect();
             let a = DMatrix::from_fn(k, jn, |i, j| basis[j][i] / sd[i]);
             let b = DVector::from_fn(k, |i, _| (target[i] - offset[i]) / sd[i]);
-            let x = nnls(&a, &b)?;
+            let x = nnls_from(&a, &b, &mut positive)?;
             let mut trial: Vec<f64> = x.iter().copied().collect();
             // Damping: halve the step toward the new solution while the log cost rises.
             for _ in 0..8 {
@@ -232,6 +238,7 @@ impl<'a> Problem<'a> {
             }
             best_cost = log_cost(&meas, &model, &edf);
         }
+        self.positive.set(positive);
         let z = z_scores(&meas, &model, &edf);
         let chi2 = z.iter().map(|v| v * v).sum();
         Ok(Solution { c, meas, model, edf, z, chi2, basis })

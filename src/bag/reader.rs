@@ -3,8 +3,8 @@
 use super::metadata::{self, BagFile};
 use super::{list_topics, mcap, sqlite, BagError, BagMessage, Storage, TopicInfo};
 use super::{IMU_TYPE, TEMPERATURE_TYPE};
-use crate::msgs::sensor_msgs::{Imu, Temperature};
-use crate::msgs::{decode, MsgError};
+use crate::msgs::sensor_msgs::{ImuReading, Temperature, IMU};
+use crate::msgs::{decode, decode_as, MsgError};
 use std::path::{Path, PathBuf};
 
 /// Which decoded message a raw one becomes.
@@ -300,7 +300,7 @@ impl BagMessages {
         Ok(match raw.role {
             Role::Imu => BagMessage::Imu {
                 log_time_ns,
-                sample: decode::<Imu>(&raw.data)
+                sample: decode_as::<ImuReading>(&raw.data, IMU.name)
                     .map_err(malformed)?
                     .to_sample(log_time_ns),
             },

@@ -159,7 +159,15 @@ pub fn encode<M: RosMessage>(msg: &M) -> Result<Vec<u8>, MsgError> {
 /// [`MsgError::TooShort`], [`MsgError::Encapsulation`], or [`MsgError::Cdr`] for a body that is
 /// truncated or malformed. Never panics on bad bytes.
 pub fn decode<M: RosMessage>(bytes: &[u8]) -> Result<M, MsgError> {
-    let type_name = M::DEF.name;
+    decode_as(bytes, M::DEF.name)
+}
+
+/// [`decode`] into `M`, a type laid out as the message `type_name` (or as the start of it), e.g.
+/// [`sensor_msgs::ImuReading`].
+///
+/// # Errors
+/// As [`decode`].
+pub(crate) fn decode_as<M: DeserializeOwned>(bytes: &[u8], type_name: &'static str) -> Result<M, MsgError> {
     if bytes.len() < 4 {
         return Err(MsgError::TooShort {
             type_name,

@@ -29,6 +29,61 @@ pub struct Imu {
     pub linear_acceleration_covariance: [f64; 9],
 }
 
+/// What the analysis of a recording reads of an [`Imu`] message, its stamp and rates, decoded
+/// from the same bytes (`msgs::decode_as`) without keeping its frame or the rest.
+///
+/// Why: a whole [`Imu`] allocates its `frame_id` for every message, only for the reader to drop
+/// it: reading an hour at 100 Hz took 0.150 s that way and 0.139 s this way (`cargo bench
+/// --bench bag_read`). The fields are [`Imu`]'s, in its order, as CDR needs; a test checks that
+/// both decode the same sample from any message.
+#[derive(Deserialize)]
+pub(crate) struct ImuReading {
+    header: StampReading,
+    _orientation: Quaternion,
+    _orientation_covariance: [f64; 9],
+    angular_velocity: Vector3,
+    _angular_velocity_covariance: [f64; 9],
+    linear_acceleration: Vector3,
+    _linear_acceleration_covariance: [f64; 9],
+}
+
+/// A [`Header`] read for its stamp: the frame name is checked to be a string, then dropped.
+#[derive(Deserialize)]
+struct StampReading {
+    stamp: Time,
+    _frame_id: Unread,
+}
+
+/// A string field read past without a copy.
+struct Unread;
+
+impl<'de> Deserialize<'de> for Unread {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Past;
+        impl serde::de::Visitor<'_> for Past {
+            type Value = Unread;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("a string")
+            }
+            fn visit_str<E: serde::de::Error>(self, _: &str) -> Result<Unread, E> {
+                Ok(Unread)
+            }
+        }
+        deserializer.deserialize_str(Past)
+    }
+}
+
+impl ImuReading {
+    /// The six rates, timed as [`Imu::to_sample`] times them.
+    pub(crate) fn to_sample(&self, log_time_ns: i64) -> ImuSample {
+        ImuSample {
+            stamp_ns: sample_time(self.header.stamp, log_time_ns),
+            gyro: self.angular_velocity.to_array(),
+            accel: self.linear_acceleration.to_array(),
+        }
+    }
+}
+
 /// The `.msg` definition of [`Imu`].
 pub static IMU: MsgDef = MsgDef {
     name: "sensor_msgs/msg/Imu",
@@ -216,8 +271,14 @@ mod tests {
             let v = bits.map(f64::from_bits);
             let s = ImuSample { stamp_ns, gyro: [v[0], v[1], v[2]], accel: [v[3], v[4], v[5]] };
             let msg = Imu::from_sample(&s, &frame_id).unwrap();
-            let back: Imu = decode(&encode(&msg).unwrap()).unwrap();
+            let bytes = encode(&msg).unwrap();
+            let back: Imu = decode(&bytes).unwrap();
             proptest::prop_assert_eq!(&back.header.frame_id, &frame_id);
+            // What a recording's reader decodes of the same bytes: the same sample, bit for bit.
+            let reading: ImuReading = crate::msgs::decode_as(&bytes, IMU.name).unwrap();
+            let (a, b) = (reading.to_sample(1), back.to_sample(1));
+            proptest::prop_assert_eq!(a.stamp_ns, b.stamp_ns);
+            proptest::prop_assert_eq!(a.values().map(f64::to_bits), b.values().map(f64::to_bits));
             let got = back.to_sample(1).values().map(f64::to_bits);
             proptest::prop_assert_eq!(got, bits);
             if stamp_ns != 0 {

@@ -176,7 +176,7 @@ mod tests {
         let e = 1000.0;
         let edf = vec![e; 2];
         let z = z_scores(&meas, &model, &edf);
-        let sol = Solution { c: vec![c], meas, model, edf, chi2: 0.0, z, basis };
+        let sol = Solution { c: vec![c], model, edf, chi2: 0.0, z, cost: 0.0, basis };
         let var = problem.covariance(&[], &sol).unwrap()[0].unwrap();
         let l = NoiseClass::WhiteFm.correlation_length();
         let rho = 0.99 * (-(2f64.ln() / l).powi(2)).exp();

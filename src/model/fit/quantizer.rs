@@ -267,7 +267,7 @@ impl Problem<'_> {
         let cost = log_cost(&meas, &model, &edf);
         let z = z_scores(&meas, &model, &edf);
         let chi2 = z.iter().map(|v| v * v).sum();
-        let sol = Solution { c, meas, model, edf, z, chi2, basis };
+        let sol = Solution { c, model, edf, z, chi2, cost, basis };
         Ok((if cost.is_finite() { cost } else { f64::MAX }, sol))
     }
 }

@@ -9,7 +9,6 @@
 //! columns are searched one shape at a time, stagewise in the first round (see
 //! [`Problem::search_shapes`] for why).
 
-use super::scoring::log_cost;
 use super::solver::Problem;
 use super::types::FitError;
 
@@ -46,8 +45,7 @@ impl Problem<'_> {
             for (d, &(lo, hi)) in ranges.iter().enumerate() {
                 self.muted = first_dim.iter().map(|f| round == 0 && f.is_some_and(|f| f > d)).collect();
                 let cost = |s: &[f64]| -> Result<f64, FitError> {
-                    let sol = self.solve(s, iters)?;
-                    let cost = log_cost(&sol.meas, &sol.model, &sol.edf);
+                    let cost = self.solve(s, iters)?.cost;
                     Ok(if cost.is_finite() { cost } else { f64::MAX })
                 };
                 // 40 points per decade: neighbouring candidates differ by 6 %.

@@ -13,7 +13,7 @@
 //! Table 12 (EDF).
 
 use super::quantizer::OutputState;
-use super::scoring::{failing_tau, log_bias, log_cost, rms, robust_edf, z_scores};
+use super::scoring::{failing_tau, log_bias, log_cost, log_cost_of, log_ratios, rms, robust_edf_of, z_scores};
 use super::types::{term_of, FitError, FitPoint};
 use super::CurveFit;
 use crate::allan::AllanPoint;
@@ -62,11 +62,12 @@ pub(super) struct Problem<'a> {
 pub(super) struct Solution {
     /// Squared amplitudes c_j.
     pub(super) c: Vec<f64>,
-    pub(super) meas: Vec<f64>,
     pub(super) model: Vec<f64>,
     pub(super) edf: Vec<f64>,
     pub(super) z: Vec<f64>,
     pub(super) chi2: f64,
+    /// [`log_cost`] of `model` against `meas` at `edf` (the objective the searches minimise).
+    pub(super) cost: f64,
     /// Per-column basis values (unit amplitude) at each point.
     pub(super) basis: Vec<Vec<f64>>,
 }
@@ -191,11 +192,12 @@ impl<'a> Problem<'a> {
         let mut c = vec![0.0; jn];
         let mut best_cost = f64::INFINITY;
         let mut positive = self.positive.take();
+        let mut ratios = log_ratios(&meas, &model);
         for _ in 0..iterations {
             // Iteratively reweighted Gauss–Newton on [`log_cost`], linearised around the current
             // model: target tᵢ = modelᵢ·(1 + ln(measᵢ/modelᵢ)), weight 1/(modelᵢ·√(2/wᵢ)) with
-            // wᵢ = edfᵢ/(1 + zᵢ²/C²) ([`robust_edf`]).
-            let wedf = robust_edf(&meas, &model, &edf);
+            // wᵢ = edfᵢ/(1 + zᵢ²/C²) ([`robust_edf_of`]); `ratios` are the current model's.
+            let wedf = robust_edf_of(&ratios, &meas, &model, &edf);
             let sd: Vec<f64> = (0..k)
                 .map(|i| {
                     let base = if model[i] > 0.0 { model[i] } else { meas[i] };
@@ -205,7 +207,7 @@ impl<'a> Problem<'a> {
             let target: Vec<f64> = (0..k)
                 .map(|i| {
                     if model[i] > 0.0 {
-                        model[i] * (1.0 + (meas[i] / model[i]).ln() - log_bias(edf[i]))
+                        model[i] * (1.0 + ratios[i] - log_bias(edf[i]))
                     } else {
                         meas[i]
                     }
@@ -215,8 +217,9 @@ impl<'a> Problem<'a> {
             let b = DVector::from_fn(k, |i, _| (target[i] - offset[i]) / sd[i]);
             let x = nnls_from(&a, &b, &mut positive)?;
             let mut trial: Vec<f64> = x.iter().copied().collect();
-            // Damping: halve the step toward the new solution while the log cost rises.
-            for _ in 0..8 {
+            // Damping: halve the step toward the new solution while the log cost rises (from the
+            // second round: the first has no cost to rise from).
+            for _ in 0..if best_cost.is_infinite() { 0 } else { 8 } {
                 let m: Vec<f64> = (0..k)
                     .map(|i| offset[i] + (0..jn).map(|j| trial[j] * basis[j][i]).sum::<f64>())
                     .collect();
@@ -236,12 +239,14 @@ impl<'a> Problem<'a> {
                 let p = &self.points[i];
                 edf[i] = edf_for_mix(&parts, Self::n_phase(p), p.m);
             }
-            best_cost = log_cost(&meas, &model, &edf);
+            ratios = log_ratios(&meas, &model);
+            best_cost = log_cost_of(&ratios, &model, &edf);
         }
         self.positive.set(positive);
+        let cost = if iterations == 0 { log_cost_of(&ratios, &model, &edf) } else { best_cost };
         let z = z_scores(&meas, &model, &edf);
         let chi2 = z.iter().map(|v| v * v).sum();
-        Ok(Solution { c, meas, model, edf, z, chi2, basis })
+        Ok(Solution { c, model, edf, z, chi2, cost, basis })
     }
 
     /// Builds terms, points and uncertainties from a solution.
@@ -356,11 +361,17 @@ mod tests {
         let edf_min = sol.edf.iter().copied().fold(f64::INFINITY, f64::min);
         assert!((sol.c[0] / n2 - 1.0).abs() < 2.0 / edf_min, "{} vs {n2}", sol.c[0]);
         assert!((sol.c[1] / k2 - 1.0).abs() < 2.0 / edf_min, "{} vs {k2}", sol.c[1]);
-        // The model is the basis weighted by the solution, and z is the contract's.
+        // The model is the basis weighted by the solution.
         for i in 0..points.len() {
             let model = sol.c[0] * sol.basis[0][i] + sol.c[1] * sol.basis[1][i];
             assert!((sol.model[i] / model - 1.0).abs() < 1e-12);
         }
-        assert_eq!(sol.z, z_scores(&sol.meas, &sol.model, &sol.edf));
+        // z is the contract's, and the cost the searches minimise is the log cost of the model.
+        let meas: Vec<f64> = points.iter().map(|p| p.avar).collect();
+        assert_eq!(sol.z, z_scores(&meas, &sol.model, &sol.edf));
+        assert_eq!(sol.cost.to_bits(), log_cost(&meas, &sol.model, &sol.edf).to_bits());
+        // Without rounds the model is the measurement itself, and so is the cost.
+        let none = Problem::new(&points, &kinds).unwrap().solve(&[], 0).unwrap();
+        assert_eq!(none.cost.to_bits(), log_cost(&meas, &meas, &none.edf).to_bits());
     }
 }

@@ -111,14 +111,18 @@ pub fn edf_oavar(class: NoiseClass, n: usize, m: usize) -> f64 {
 /// (the variance of a sum of independent scaled χ² variables, matched to one scaled χ²).
 pub fn edf_for_mix(parts: &[(f64, NoiseClass)], n: usize, m: usize) -> f64 {
     let total: f64 = parts.iter().map(|p| p.0).sum();
-    let var: f64 = parts
-        .iter()
-        .map(|&(v, c)| v * v / edf_oavar(c, n, m))
-        .sum();
+    edf_of_mix(total, parts.iter().map(|&(v, c)| (v, edf_oavar(c, n, m))), || edf_oavar(NoiseClass::WhiteFm, n, m))
+}
+
+/// [`edf_for_mix`] from the parts' total, each part's variance beside its class's EDF, and the
+/// white-FM EDF it falls back to: the same number, for callers that make the classes' EDFs once
+/// and mix them many times (the fit's every round at every point).
+pub fn edf_of_mix(total: f64, parts: impl Iterator<Item = (f64, f64)>, white_fm: impl FnOnce() -> f64) -> f64 {
+    let var: f64 = parts.map(|(v, edf)| v * v / edf).sum();
     if total > 0.0 && var > 0.0 {
         (total * total / var).max(1.0)
     } else {
-        edf_oavar(NoiseClass::WhiteFm, n, m)
+        white_fm()
     }
 }
 
@@ -160,6 +164,23 @@ pub fn chi2_interval(avar: f64, edf: f64) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_mix_is_the_squared_total_over_the_parts_variances() {
+        use NoiseClass::*;
+        let (n, m) = (10_001, 7);
+        let (e1, e2) = (edf_oavar(WhiteFm, n, m), edf_oavar(RandomWalkFm, n, m));
+        // (1 + 3)² / (1²/e1 + 3²/e2): the variance of a sum of independent scaled χ².
+        let want = 16.0 / (1.0 / e1 + 9.0 / e2);
+        let got = edf_for_mix(&[(1.0, WhiteFm), (3.0, RandomWalkFm)], n, m);
+        assert!((got / want - 1.0).abs() < 1e-15, "{got} vs {want}");
+        // From EDFs kept by the caller: the same bits.
+        let kept = edf_of_mix(4.0, [(1.0, e1), (3.0, e2)].into_iter(), || unreachable!());
+        assert_eq!(kept.to_bits(), got.to_bits());
+        // No variance: white FM's EDF, asked only then.
+        assert_eq!(edf_for_mix(&[(0.0, RandomWalkFm)], n, m), e1);
+        assert_eq!(edf_of_mix(0.0, std::iter::empty(), || 42.0), 42.0);
+    }
 
     #[test]
     fn chi2_interval_is_finite_and_tight_at_every_edf() {

@@ -18,7 +18,7 @@ use super::types::{term_of, FitError, FitPoint};
 use super::CurveFit;
 use crate::allan::AllanPoint;
 use crate::model::effects::{Effect, EffectKind};
-use crate::model::measure::{edf_for_mix, NoiseClass};
+use crate::model::measure::{edf_oavar, edf_of_mix, NoiseClass};
 use crate::model::nnls::nnls_from;
 use std::cell::Cell;
 use nalgebra::{DMatrix, DVector};
@@ -53,9 +53,26 @@ pub(super) struct Problem<'a> {
     /// Peaks of the samples' periodogram, (frequency, bin width) in Hz: extra candidates of
     /// every frequency's scan (see [`Problem::search_shapes`]).
     pub(super) line_hints: Vec<(f64, f64)>,
+    /// Per point, the EDFs its model's parts are mixed from ([`edf_of_mix`]): made once, as
+    /// the columns' classes are fixed.
+    edfs: Vec<PointEdfs>,
     /// The columns with a positive amplitude in the latest NNLS: the next one's guess
     /// ([`nnls_from`]; the same answers, fewer solves), the searches' trials being neighbours.
     positive: Cell<Vec<bool>>,
+}
+
+/// The EDFs of one point's estimate under each noise class a model of the problem mixes
+/// ([`edf_oavar`] at the point's length and factor).
+///
+/// Why kept: the fit mixes them at every point of every round ([`Problem::solve`]), and each is
+/// a few divisions; made once they were 1 to 2 % of `fdavar analyze`'s CPU less.
+struct PointEdfs {
+    /// White FM's: the first round's EDF, and a mix's when it has no variance.
+    white_fm: f64,
+    /// Each column's class's, in column order.
+    columns: Vec<f64>,
+    /// The offset's class's (the output columns' while they are held).
+    offset: f64,
 }
 
 /// A weighted NNLS solution at fixed shape parameters.
@@ -116,12 +133,25 @@ impl<'a> Problem<'a> {
             muted: Vec::new(),
             line_hints: Vec::new(),
             positive: Cell::new(Vec::new()),
+            edfs: Vec::new(),
         };
         for j in 0..problem.columns.len() {
             let shapes = problem.initial_shapes();
             let eff = problem.build(j, 1.0, &shapes)?;
             problem.columns[j].class = NoiseClass::from_slope(eff.explain().avar_slope);
         }
+        let offset_class = problem.offset_class();
+        problem.edfs = points
+            .iter()
+            .map(|p| {
+                let edf = |class| edf_oavar(class, Self::n_phase(p), p.m);
+                PointEdfs {
+                    white_fm: edf(NoiseClass::WhiteFm),
+                    columns: problem.columns.iter().map(|c| edf(c.class)).collect(),
+                    offset: edf(offset_class),
+                }
+            })
+            .collect();
         Ok(problem)
     }
 
@@ -173,21 +203,22 @@ impl<'a> Problem<'a> {
         p.terms + 2 * p.m
     }
 
+    /// The noise class of the model's fixed part ([`Problem::offset`]): the first output
+    /// column's, else white PM.
+    fn offset_class(&self) -> NoiseClass {
+        (0..self.columns.len())
+            .find(|&j| self.is_output(j))
+            .map_or(NoiseClass::WhitePm, |j| self.columns[j].class)
+    }
+
     /// Weighted NNLS with the weights and EDF iterated on the model.
     pub(super) fn solve(&self, shapes: &[f64], iterations: usize) -> Result<Solution, FitError> {
         let basis = self.basis(shapes)?;
         let offset = self.offset(shapes)?;
-        let offset_class = (0..self.columns.len())
-            .find(|&j| self.is_output(j))
-            .map_or(NoiseClass::WhitePm, |j| self.columns[j].class);
         let k = self.points.len();
         let jn = self.columns.len();
         let meas: Vec<f64> = self.points.iter().map(|p| p.avar).collect();
-        let mut edf: Vec<f64> = self
-            .points
-            .iter()
-            .map(|p| crate::model::measure::edf_oavar(NoiseClass::WhiteFm, Self::n_phase(p), p.m))
-            .collect();
+        let mut edf: Vec<f64> = self.edfs.iter().map(|e| e.white_fm).collect();
         let mut model = meas.clone();
         let mut c = vec![0.0; jn];
         let mut best_cost = f64::INFINITY;
@@ -230,14 +261,15 @@ impl<'a> Problem<'a> {
                 trial = trial.iter().zip(&c).map(|(t, o)| 0.5 * (t + o)).collect();
             }
             c = trial;
-            for i in 0..k {
-                let parts: Vec<(f64, NoiseClass)> = (0..jn)
-                    .map(|j| (c[j] * basis[j][i], self.columns[j].class))
-                    .chain((offset[i] > 0.0).then_some((offset[i], offset_class)))
-                    .collect();
-                model[i] = parts.iter().map(|p| p.0).sum();
-                let p = &self.points[i];
-                edf[i] = edf_for_mix(&parts, Self::n_phase(p), p.m);
+            for (i, e) in self.edfs.iter().enumerate() {
+                // The parts (variance, its class's EDF) of the model at point i.
+                let parts = || {
+                    (0..jn)
+                        .map(|j| (c[j] * basis[j][i], e.columns[j]))
+                        .chain((offset[i] > 0.0).then_some((offset[i], e.offset)))
+                };
+                model[i] = parts().map(|p| p.0).sum();
+                edf[i] = edf_of_mix(model[i], parts(), || e.white_fm);
             }
             ratios = log_ratios(&meas, &model);
             best_cost = log_cost_of(&ratios, &model, &edf);

@@ -55,11 +55,13 @@ pub fn nnls(a: &DMatrix<f64>, b: &DVector<f64>) -> Result<DVector<f64>, NnlsErro
 /// [`nnls`] started from a guess of which variables are positive at the optimum, e.g. the answer
 /// to a neighbouring problem: `passive` holds the guess (empty: none) and receives this answer's.
 ///
-/// The answer is the one [`nnls`] gives. At its optimum the active-set iteration ends with the
-/// least-squares solution on the positive variables, no more; a guess is taken only when that
-/// solution is positive and no other variable's gradient would enter, which is where the
+/// The answer is the one [`nnls`] gives whenever the optimum's positive set is unique (the
+/// columns independent, no gradient within the tolerance of entering). The active-set iteration
+/// ends with the least-squares solution on the positive variables, no more; a guess is taken only
+/// when that solution is positive and no other variable's gradient would enter, which is where the
 /// iteration from nothing stops, so the final solve is the same computation. Otherwise the
-/// iteration runs from nothing.
+/// iteration runs from nothing. Checked bit for bit on random problems (the tests) and on every
+/// fit of the recordings the suite diagnoses (their JSON unchanged).
 ///
 /// Why: the fit solves a sequence of problems that differ a little (its reweighting rounds,
 /// the points of a scan), and from nothing each costs one solve per variable added, the largest

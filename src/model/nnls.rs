@@ -196,14 +196,24 @@ mod tests {
         }
     }
 
+    /// A problem of `rows` × `cols` (each drawn from its range), entries uniform in [−1, 1).
+    fn random_problem(
+        rng: &mut ChaCha8Rng,
+        rows: std::ops::Range<usize>,
+        cols: std::ops::Range<usize>,
+    ) -> (DMatrix<f64>, DVector<f64>) {
+        let rows = rng.random_range(rows);
+        let cols = rng.random_range(cols);
+        let a = DMatrix::from_fn(rows, cols, |_, _| rng.random_range(-1.0..1.0));
+        let b = DVector::from_fn(rows, |_, _| rng.random_range(-1.0..1.0));
+        (a, b)
+    }
+
     #[test]
     fn random_problems_satisfy_kkt() {
         let mut rng = ChaCha8Rng::seed_from_u64(7);
         for _ in 0..200 {
-            let rows = rng.random_range(3..12);
-            let cols = rng.random_range(1..6);
-            let a = DMatrix::from_fn(rows, cols, |_, _| rng.random_range(-1.0..1.0));
-            let b = DVector::from_fn(rows, |_, _| rng.random_range(-1.0..1.0));
+            let (a, b) = random_problem(&mut rng, 3..12, 1..6);
             let x = nnls(&a, &b).unwrap();
             assert_kkt(&a, &b, &x);
         }
@@ -214,10 +224,8 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(11);
         let (mut taken, mut wrong) = (0, 0);
         for _ in 0..300 {
-            let rows = rng.random_range(6..40);
-            let cols = rng.random_range(1..6);
-            let a = DMatrix::from_fn(rows, cols, |_, _| rng.random_range(-1.0..1.0));
-            let b = DVector::from_fn(rows, |_, _| rng.random_range(-1.0..1.0));
+            let (a, b) = random_problem(&mut rng, 6..40, 1..6);
+            let cols = a.ncols();
             let want = nnls(&a, &b).unwrap();
             let right: Vec<bool> = want.iter().map(|&x| x > 0.0).collect();
             // The answer's own set, a random set, every column, and none.

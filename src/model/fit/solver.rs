@@ -250,7 +250,8 @@ impl<'a> Problem<'a> {
             let mut trial: Vec<f64> = x.iter().copied().collect();
             // Damping: halve the step toward the new solution while the log cost rises (from the
             // second round: the first has no cost to rise from).
-            for _ in 0..if best_cost.is_infinite() { 0 } else { 8 } {
+            let halvings = if best_cost.is_infinite() { 0 } else { 8 };
+            for _ in 0..halvings {
                 let m: Vec<f64> = (0..k)
                     .map(|i| offset[i] + (0..jn).map(|j| trial[j] * basis[j][i]).sum::<f64>())
                     .collect();

@@ -89,8 +89,9 @@ fn errors_are_clear_and_exit_1() {
     let bad = write(dir.path(), "bad.txt", "# header\n1.0\n2.0\nhello\n");
     let short = write(dir.path(), "short.txt", "1.0\n2.0\n");
     let good = write(dir.path(), "good.txt", NBS14_FREQ);
+    let empty = write(dir.path(), "empty.txt", "# only a comment\n\n");
     let missing = dir.path().join("nope.txt");
-    let cases: [(Vec<&str>, &str); 5] = [
+    let cases: [(Vec<&str>, &str); 6] = [
         (
             vec![missing.to_str().unwrap(), "--rate", "1"],
             "cannot read",
@@ -102,6 +103,10 @@ fn errors_are_clear_and_exit_1() {
         (
             vec![&short, "--rate", "1", "--phase"],
             "needs at least 3 phase points, got 2",
+        ),
+        (
+            vec![&empty, "--rate", "1"],
+            "empty.txt holds no values (one number per line, '#' comments)",
         ),
         (
             vec![&good, "--rate", "0"],

@@ -5,7 +5,7 @@
 //! parameters and the reports can all carry it. Names are resolved through the effect registry,
 //! so a new effect is usable in a spec as soon as it is in [`effects::REGISTRY`].
 
-use crate::model::effects::{self, EffectKind};
+use crate::model::effects::{self, Domain, EffectKind};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
@@ -36,6 +36,22 @@ pub enum SpecError {
     /// `N,B`, hiding a name the user meant to give).
     #[error("empty effect name in model spec '{0}' (two commas in a row, or one at an end)")]
     EmptyTerm(String),
+    /// A spec of time-domain effects only, e.g. `bias_step`: the fitter removes those from the
+    /// samples and fits the Allan variance of the rest with the spectral effects, so without one
+    /// the model's Allan variance is zero and every z infinite.
+    #[error(
+        "model spec '{spec}' has no noise term: time-domain effects ({time_domain}) are removed \
+         from the samples before the Allan variance of the rest is fitted with the spectral \
+         effects ({spectral}); add one, e.g. N,B,K,{spec}"
+    )]
+    NoNoiseTerm {
+        /// The spec as given.
+        spec: String,
+        /// The registry's spectral kinds, comma-separated.
+        spectral: String,
+        /// The registry's time-domain kinds, comma-separated.
+        time_domain: String,
+    },
     /// `AXIS=SPEC` with a name that is not an axis.
     #[error("unknown axis '{0}' in '{0}=…' (axes: gyro_x gyro_y gyro_z accel_x accel_y accel_z)")]
     UnknownAxis(String),
@@ -82,7 +98,8 @@ impl ModelSpec {
     ///
     /// # Errors
     /// [`SpecError::UnknownEffect`] naming the first unknown term, [`SpecError::Empty`],
-    /// [`SpecError::EmptyTerm`] for an empty name between commas.
+    /// [`SpecError::EmptyTerm`] for an empty name between commas, [`SpecError::NoNoiseTerm`] for
+    /// time-domain effects alone.
     pub fn parse(s: &str) -> Result<Self, SpecError> {
         Self::parse_in(s, effects::REGISTRY)
     }
@@ -109,6 +126,18 @@ impl ModelSpec {
         }
         if spec.effects.is_empty() {
             return Err(SpecError::Empty);
+        }
+        let spectral = |k: &&'static dyn EffectKind| k.domain() == Domain::Spectral;
+        if !spec.kinds(registry)?.iter().any(spectral) {
+            let names = |want: bool| {
+                let kinds = registry.iter().filter(|k| spectral(k) == want);
+                kinds.map(|k| k.alias().unwrap_or(k.id())).collect::<Vec<_>>().join(", ")
+            };
+            return Err(SpecError::NoNoiseTerm {
+                spec: s.trim().to_string(),
+                spectral: names(true),
+                time_domain: names(false),
+            });
         }
         Ok(spec)
     }
@@ -218,6 +247,21 @@ mod tests {
                 err.to_string(),
                 format!("empty effect name in model spec '{spec}' (two commas in a row, or one at an end)")
             );
+        }
+    }
+
+    #[test]
+    fn a_model_needs_a_noise_term() {
+        for spec in ["bias_step", "bias_step, noise_burst", "temperature,g_sensitivity"] {
+            let err = ModelSpec::parse_in(spec, KINDS).unwrap_err();
+            assert!(matches!(&err, SpecError::NoNoiseTerm { spec: s, .. } if s == spec), "{spec}: {err}");
+            let text = err.to_string();
+            assert!(text.contains("spectral effects (Q, N, B, K, sinusoid,") && text.contains("(R, bias_step, noise_burst,"), "{text}");
+            assert!(text.ends_with(&format!("e.g. N,B,K,{spec}")), "{text}");
+        }
+        // One spectral term suffices, whichever it is.
+        for spec in ["bias_step,sinusoid", "Q", "bandwidth,noise_burst"] {
+            assert!(ModelSpec::parse_in(spec, KINDS).is_ok(), "{spec}");
         }
     }
 

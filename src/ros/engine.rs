@@ -39,7 +39,8 @@ pub struct AnalysisEngine {
 /// Parses a model spec given as a parameter.
 ///
 /// # Errors
-/// The spec's parse error (unknown effect, empty name), as text for the parameter service.
+/// The spec's parse error (unknown effect, empty name, no noise term), as text for the
+/// parameter service.
 pub fn model_spec(spec: &str) -> Result<ModelSpec, String> {
     ModelSpec::parse(spec).map_err(|e| e.to_string())
 }

@@ -536,6 +536,9 @@ mod tests {
         assert!(validate("model", &ParameterValue::String("N,B,K,sinusoid".into())).is_ok());
         let e = validate("model", &ParameterValue::String("N,warp_drive".into())).unwrap_err();
         assert!(e.to_string().contains("warp_drive"), "{e}");
+        // A model without a noise term would publish an infinite fit_error: refused, saying why.
+        let e = validate("model.gyro_x", &ParameterValue::String("bias_step".into())).unwrap_err();
+        assert!(e.to_string().contains("has no noise term"), "{e}");
         // The diagnosis period: 0 turns it off, negative or non-finite is refused.
         assert!(validate("diagnosis_period_s", &ParameterValue::Double(0.0)).is_ok());
         assert_eq!(

@@ -61,6 +61,10 @@ fn configure(args: &Args) -> anyhow::Result<RunConfig> {
     let tau0 = 1.0 / args.rate;
     let values = text::read_column(&args.file, args.column.as_ref())
         .with_context(|| format!("reading {}", args.file.display()))?;
+    if values.is_empty() {
+        // Said here: as rate data, no values would pass on as one phase point (the zero start).
+        bail!("{} holds no values (one number per line, '#' comments)", args.file.display());
+    }
     let phase = if args.phase {
         values
     } else {

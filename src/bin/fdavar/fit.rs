@@ -35,7 +35,8 @@ pub struct Args {
     pub bag: PathBuf,
     /// Model: comma-separated effect ids or aliases, e.g. N,B,K,sinusoid, for every axis; or
     /// AXIS=SPEC for one axis (repeatable; later values win), e.g. --model N,B,K --model
-    /// gyro_x=N,B,K,sinusoid.
+    /// gyro_x=N,B,K,sinusoid. At least one noise (spectral) term: time-domain effects such as
+    /// bias_step are removed from the samples before the Allan variance of the rest is fitted.
     #[arg(long, required = true, value_parser = crate::model_spec_arg)]
     pub model: Vec<String>,
     #[command(flatten)]

@@ -406,6 +406,27 @@ fn a_file_without_line_breaks_is_refused() {
     assert!(start.elapsed().as_secs_f64() < 5.0, "{:?}", start.elapsed());
 }
 
+/// Too few samples for a first row: the summary says so, with the window the first row needs
+/// (the default policy's initial window, 501 samples), instead of printing τ0 alone.
+#[test]
+fn a_record_shorter_than_the_first_window_says_why_it_has_no_rows() {
+    let summary = |samples: usize| {
+        let mut f = tempfile::NamedTempFile::new().unwrap();
+        (0..samples).for_each(|k| writeln!(f, "{}", (k as f64).sin()).unwrap());
+        let out = fdavar().args(["davar", f.path().to_str().unwrap(), "--rate", "100"]).output().unwrap();
+        assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let short = summary(500);
+    assert_eq!(
+        short,
+        "tau0: 0.01 s\nno rows: an axis gives its first row once 501 samples fill its first window \
+         (`window` in a --params file sets it)\n"
+    );
+    let long = summary(501);
+    assert!(long.contains(": 1 rows,") && !long.contains("no rows"), "{long}");
+}
+
 /// `--out DIR`: per axis the DAVAR surface and the window trace (PNG + SVG), drawn from every row
 /// the run made: the same SVG as the library draws from the rows and events `--json` prints.
 #[test]

@@ -183,7 +183,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         })?;
     } else {
         let mut out = std::io::stdout().lock();
-        crate::davar::write_summary(&mut out, tau0, &summaries, &events).context("writing output")?;
+        crate::davar::write_summary(&mut out, tau0, davar.policy.build().initial(), &summaries, &events).context("writing output")?;
         for d in &diagnoses {
             write_diagnosis(&mut out, d).context("writing output")?;
         }

@@ -159,6 +159,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         printed: 0,
         begun: false,
         axes: BTreeMap::new(),
+        first_window: run.config.policy.build().initial(),
     };
     let limits = match run.config.policy {
         PolicyConfig::Fixed { length } => (length, length),
@@ -276,6 +277,8 @@ struct Printer<W: Write> {
     /// either prints nothing).
     begun: bool,
     axes: BTreeMap<Axis, RowSummary>,
+    /// The window of an axis's first row, samples (said when no axis has a row).
+    first_window: usize,
 }
 
 impl<W: Write> Printer<W> {
@@ -342,21 +345,30 @@ impl<W: Write> Printer<W> {
 
     fn write_summary(&mut self, p: &Pipeline, events: &[AxisEvent]) -> std::io::Result<()> {
         let summaries: Vec<RowSummary> = self.axes.values().copied().collect();
-        write_summary(&mut self.w, p.tau0(), &summaries, events)
+        write_summary(&mut self.w, p.tau0(), self.first_window, &summaries, events)
     }
 }
 
 /// The summary of the rows: τ0, then per axis its rows' count, time span and window range, and
-/// its change events (also `fdavar analyze`'s).
+/// its change events (also `fdavar analyze`'s); when no axis has a row, why: an axis's first row
+/// needs `first_window` samples.
 pub fn write_summary(
     w: &mut dyn Write,
     tau0: Option<f64>,
+    first_window: usize,
     summaries: &[RowSummary],
     events: &[AxisEvent],
 ) -> std::io::Result<()> {
     match tau0 {
         Some(tau0) => writeln!(w, "tau0: {tau0} s")?,
         None => writeln!(w, "tau0: unknown (too few samples)")?,
+    }
+    if summaries.is_empty() {
+        writeln!(
+            w,
+            "no rows: an axis gives its first row once {first_window} samples fill its first window \
+             (`window` in a --params file sets it)"
+        )?;
     }
     for s in summaries {
         writeln!(

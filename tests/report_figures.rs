@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 use fdavar::report::figure::{
     write_allan, write_allan_comparison, write_davar_surface, write_window_trace, AllanComparison,
-    AllanFigure, DavarSurface, MeasuredPoint, ModelCurves, Term, WindowTrace,
+    AllanFigure, DavarSurface, MeasuredPoint, ModelCurves, SpanScore, Term, WindowTrace,
 };
 use fdavar::report::ReportError;
 use proptest::prelude::*;
@@ -124,6 +124,8 @@ fn model(measured: &[MeasuredPoint], terms: &[AvarTerm]) -> ModelCurves {
         z,
         failing_tau,
         fit_error,
+        whole_fit_error: None,
+        spans: Vec::new(),
     }
 }
 
@@ -422,12 +424,77 @@ fn comparison_after_column_draws_the_data_it_was_fitted_to() {
     let (with_residual, svg) = circles(&residual, "residual");
     // Five fewer measured points in the after column, nothing else changed.
     assert_eq!(with_same - with_residual, 5);
-    assert!(svg.contains("after, on the data less its time-domain terms"), "heading");
+    assert!(svg.contains("after: + sinusoid, on the data less its time-domain terms"), "heading");
     assert!(!svg_same.contains("time-domain terms"));
 
     residual.after_measured.as_mut().unwrap()[3].dev = f64::NAN;
     let err = write_allan_comparison(&residual, &dir.join("bad")).unwrap_err();
     assert!(err.to_string().contains("after_measured.dev[3]"), "{err}");
+}
+
+/// Nineteen spans of 20 s overlapping by half (the first 200 s): the fit's span check as the
+/// figure gets it, the spans at the indices `failing` with fit error 5 or 8, the others 1–1.9;
+/// every third quieter than the model.
+fn spans(failing: &[usize]) -> Vec<SpanScore> {
+    (0..19)
+        .map(|i| SpanScore {
+            start_s: 10.0 * i as f64,
+            end_s: 10.0 * i as f64 + 20.0,
+            fit_error: if failing.contains(&i) { [5.0, 8.0][i % 2] } else { 1.0 + 0.05 * i as f64 },
+            louder: i % 3 != 0,
+        })
+        .collect()
+}
+
+/// The `fill-opacity="0.16"` rectangles of an SVG: the shaded failing ranges (τ and time).
+fn shaded(svg: &str) -> usize {
+    svg.split("<rect").skip(1).filter(|r| r.split('>').next().unwrap_or("").contains("0.16")).count()
+}
+
+#[test]
+fn a_span_panel_shows_when_in_the_record_the_model_fails() {
+    let (_keep, dir) = out_dir();
+    let mut fig = allan_figure();
+    fig.model.whole_fit_error = Some(fig.model.fit_error - 1.0);
+    fig.model.spans = spans(&[]);
+    let passing = write_allan(&fig, &dir.join("allan_spans_passing")).unwrap();
+    let whole = format!("(whole record {:.2})", fig.model.fit_error - 1.0);
+    check_written(
+        &passing,
+        (1200, 1150),
+        &["time of the span [s]", "span fit error (− quieter)", "fit error of a span", &whole],
+    );
+    // Spans 3 and 4 overlap: one shaded range; span 10 another.
+    fig.model.spans = spans(&[3, 4, 10]);
+    let failing = write_allan(&fig, &dir.join("allan_spans_failing")).unwrap();
+    let svg = |paths: &[PathBuf]| std::fs::read_to_string(&paths[1]).unwrap();
+    assert_eq!(shaded(&svg(&failing)) - shaded(&svg(&passing)), 2);
+    // The whole record's error is said only when the spans raised fit_error above it.
+    fig.model.whole_fit_error = Some(fig.model.fit_error);
+    let same = write_allan(&fig, &dir.join("allan_spans_same")).unwrap();
+    assert!(!svg(&same).contains("whole record"));
+    // Without spans, no panel: the figure keeps its height.
+    fig.model.spans.clear();
+    assert_eq!(png_size(&write_allan(&fig, &dir.join("allan_no_spans")).unwrap()[0]), (1200, 900));
+}
+
+#[test]
+fn bad_spans_are_named() {
+    let (_tmp, stem) = stem();
+    let mut fig = allan_figure();
+    fig.model.spans = spans(&[]);
+    fig.model.spans[1].fit_error = f64::NAN;
+    let err = write_allan(&fig, &stem).unwrap_err();
+    assert!(err.to_string().contains("model.spans.fit_error[1]"), "{err}");
+    fig.model.spans = spans(&[]);
+    fig.model.spans[2].end_s = 0.0;
+    let err = write_allan(&fig, &stem).unwrap_err();
+    assert!(err.to_string().contains("model.spans.start_s/end_s"), "{err}");
+    let mut cmp = comparison();
+    cmp.after.spans = spans(&[]);
+    cmp.after.spans[0].fit_error = -1.0;
+    let err = write_allan_comparison(&cmp, &stem).unwrap_err();
+    assert!(err.to_string().contains("after.spans.fit_error[0]"), "{err}");
 }
 
 #[test]
@@ -761,6 +828,8 @@ proptest! {
                 z: taus.iter().zip(z.iter().cycle()).map(|(&t, &z)| (t, z)).collect(),
                 failing_tau: taus.iter().map(|&t| (t, t)).collect(),
                 fit_error: 1.0,
+                whole_fit_error: z.first().copied(),
+                spans: z.windows(3).map(|w| SpanScore { start_s: w[0], end_s: w[1], fit_error: w[2], louder: w[0] < w[2] }).collect(),
             },
             measured,
         };
@@ -777,6 +846,7 @@ proptest! {
         offset in (-280.0f64..280.0, -278.0f64..278.0),
         points in prop::collection::vec((-19.0f64..19.0, -19.0f64..19.0, 0.0f64..3.0), 1..6),
         z in prop::collection::vec(-1e300f64..1e300, 1..6),
+        spans in prop::collection::vec((-1e299f64..1e299, 1e-6f64..1.0, 0.0f64..1e300), 0..5),
     ) {
         let mut points = points;
         points.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -798,6 +868,12 @@ proptest! {
                 z: measured.iter().zip(z.iter().cycle()).map(|(p, &z)| (p.tau, z)).collect(),
                 failing_tau: vec![],
                 fit_error: 1.0,
+                whole_fit_error: Some(0.5),
+                // A span of at least 10⁻⁶ of its start's magnitude: a linear axis resolves it.
+                spans: spans
+                    .iter()
+                    .map(|&(start, len, e)| SpanScore { start_s: start, end_s: start + len * start.abs().max(1.0), fit_error: e, louder: len < 0.5 })
+                    .collect(),
             },
             measured,
         };

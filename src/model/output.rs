@@ -9,7 +9,7 @@
 
 use crate::model::diagnose::Diagnosis;
 use crate::model::fit::{FittedModel, ParamValue};
-use crate::report::figure::{AllanComparison, AllanFigure, MeasuredPoint, ModelCurves, Term};
+use crate::report::figure::{AllanComparison, AllanFigure, MeasuredPoint, ModelCurves, SpanScore, Term};
 use serde::Serialize;
 use serde_json::{Map, Value};
 
@@ -166,6 +166,17 @@ pub fn model_curves(fit: &FittedModel) -> ModelCurves {
         z: fit.points.iter().map(|p| (p.tau, p.z)).collect(),
         failing_tau: fit.failing_tau.iter().map(|r| (r[0], r[1])).collect(),
         fit_error: fit.fit_error,
+        whole_fit_error: Some(fit.whole_fit_error),
+        spans: fit
+            .spans
+            .iter()
+            .map(|c| SpanScore {
+                start_s: c.span.start_s,
+                end_s: c.span.end_s,
+                fit_error: c.fit_error,
+                louder: c.mean_z >= 0.0,
+            })
+            .collect(),
     }
 }
 

@@ -41,6 +41,10 @@ pub struct SpanCheck {
     pub span: Span,
     /// RMS of z over the span's own τ grid, the model being the whole-record fit.
     pub fit_error: f64,
+    /// Mean of those z: its sign tells a span louder than the model (+) from a quieter one (−),
+    /// which the RMS cannot (0 without points).
+    #[serde(default)]
+    pub mean_z: f64,
 }
 
 /// The Allan variance of one span of the cleaned record.
@@ -121,9 +125,11 @@ pub(super) fn check_span(measure: &SpanMeasure, fit: &CurveFit) -> (SpanCheck, V
                 .pop()
         })
         .collect();
+    let mean_z = if z.is_empty() { 0.0 } else { z.iter().sum::<f64>() / z.len() as f64 };
     let check = SpanCheck {
         span: measure.span,
         fit_error: rms(&z),
+        mean_z,
     };
     (check, z)
 }
@@ -149,7 +155,7 @@ mod tests {
     use crate::allan::oavar_rate;
 
     fn check(start_s: f64, end_s: f64, fit_error: f64) -> SpanCheck {
-        SpanCheck { span: Span { start_s, end_s }, fit_error }
+        SpanCheck { span: Span { start_s, end_s }, fit_error, mean_z: fit_error }
     }
 
     #[test]
@@ -250,5 +256,12 @@ mod tests {
         }
         assert_eq!(checked.span, measure.span);
         assert_eq!(checked.fit_error, rms(&z));
+        // Louder than the model: a positive mean z; the same span measured quieter, a negative one.
+        assert!((checked.mean_z - (want[0] + want[1]) / 2.0).abs() < 1e-9 * checked.mean_z, "{}", checked.mean_z);
+        let quieter = SpanMeasure {
+            points: measure.points.iter().map(|p| AllanPoint { avar: 0.9, ..*p }).collect(),
+            ..measure
+        };
+        assert!((check_span(&quieter, &fit).0.mean_z + checked.mean_z).abs() < 1e-9 * checked.mean_z);
     }
 }

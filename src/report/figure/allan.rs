@@ -1,5 +1,6 @@
 //! The Allan deviation figure: measured σ(τ) with its confidence band, the fitted model and each of
-//! its terms, and a residual panel of z with the failing τ ranges shaded.
+//! its terms, a residual panel of z with the failing τ ranges shaded, and (when the fit checked the
+//! model on spans of the record) a panel of each span's fit error over time.
 use serde::{Deserialize, Serialize};
 
 use super::*;
@@ -36,6 +37,37 @@ pub struct Term {
     pub curve: Vec<(f64, f64)>,
 }
 
+/// The model checked on one span of the record: the span's own Allan variance against the
+/// whole-record model (the fit's time-resolved check, `crate::model::fit::SpanCheck`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SpanScore {
+    /// Start of the span, seconds from the first sample.
+    pub start_s: f64,
+    /// End of the span, seconds from the first sample.
+    pub end_s: f64,
+    /// RMS of z over the span's τ grid.
+    pub fit_error: f64,
+    /// Whether the span's Allan variance lies above the model on the whole (mean z ≥ 0): drawn
+    /// above the zero line, a quieter span below it.
+    #[serde(default = "louder_by_default")]
+    pub louder: bool,
+}
+
+fn louder_by_default() -> bool {
+    true
+}
+
+impl SpanScore {
+    /// The span's fit error signed by `louder`, where the panel draws it.
+    fn signed(&self) -> f64 {
+        if self.louder {
+            self.fit_error
+        } else {
+            -self.fit_error
+        }
+    }
+}
+
 /// A fitted model as the figures see it: its curves, residuals and error.
 ///
 /// `z` and `failing_tau` follow the contracts of docs/design.md §5: z = (σ²_meas − σ²_model) /
@@ -52,15 +84,28 @@ pub struct ModelCurves {
     pub z: Vec<(f64, f64)>,
     /// Maximal τ intervals \[lo, hi\] (seconds) where |z| > 3.
     pub failing_tau: Vec<(f64, f64)>,
-    /// RMS of z over the τ grid (≈ 1 when the model explains the measurement).
+    /// RMS of z over the τ grid (≈ 1 when the model explains the measurement); with `spans`, the
+    /// larger of the whole record's and the spans' pooled RMS, as the fit reports it.
     pub fit_error: f64,
+    /// RMS of z over the whole record's τ grid alone, when `fit_error` also weighs the spans;
+    /// `None` without a time-resolved check.
+    #[serde(default)]
+    pub whole_fit_error: Option<f64>,
+    /// Each span's check, in time order; empty: no time-resolved check, and no span panel.
+    ///
+    /// Why a panel of its own: a model can pass through every point of the whole-record curve
+    /// (the noise averaged over the record) and still fail where the record is not stationary (a
+    /// step, a burst, a louder half); the z panel cannot show that, the span panel shows when.
+    #[serde(default)]
+    pub spans: Vec<SpanScore>,
 }
 
 /// The Allan deviation figure of one axis and one model.
 ///
 /// Top panel: measured σ(τ) (points, confidence band), the model total (black) and each term
-/// (dashed), failing τ shaded. Bottom panel: z(τ) with the |z| = 3 guide lines and the same
-/// shading. Write it with [`write_allan`].
+/// (dashed), failing τ shaded. Below: z(τ) with the |z| = 3 guide lines and the same shading;
+/// then, when the model has [`ModelCurves::spans`], each span's fit error against time, spans
+/// above 3 shaded. Write it with [`write_allan`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AllanFigure {
     /// Axis name (`gyro_x` … `accel_z`).
@@ -112,11 +157,12 @@ pub struct AllanComparison {
 /// where it goes on a log axis (τ, measured σ and its band), or an interval is reversed;
 /// [`ReportError::Draw`] when a file cannot be written.
 pub fn write_allan(figure: &AllanFigure, stem: &Path) -> Result<Vec<PathBuf>, ReportError> {
+    let heading = format!("model {}", figure.model.label);
     let panels = Panels::new(
         &figure.axis,
         &figure.unit,
         &figure.title,
-        vec![(String::new(), &figure.model, &figure.measured)],
+        vec![(heading, &figure.model, &figure.measured)],
     )?;
     write_figure(&panels, stem)
 }
@@ -129,15 +175,28 @@ pub fn write_allan_comparison(
     figure: &AllanComparison,
     stem: &Path,
 ) -> Result<Vec<PathBuf>, ReportError> {
-    let after: Column<'_> = match &figure.after_measured {
-        Some(m) => ("after, on the data less its time-domain terms".to_string(), &figure.after, m),
-        None => ("after".to_string(), &figure.after, &figure.measured),
+    // The after model named by what it adds when it keeps every term of the before model: the
+    // full list twice made captions too long for their columns.
+    // (By the labels: a time-domain term has no curve among the terms.)
+    let names = |m: &ModelCurves| -> Vec<String> { m.label.split(" + ").map(str::to_string).collect() };
+    let (before_names, after_names) = (names(&figure.before), names(&figure.after));
+    let added: Vec<&str> =
+        after_names.iter().filter(|n| !before_names.contains(n)).map(String::as_str).collect();
+    let after_label = if !added.is_empty() && before_names.iter().all(|n| after_names.contains(n)) {
+        format!("+ {}", added.join(" + "))
+    } else {
+        figure.after.label.clone()
     };
+    let after: Column<'_> = match &figure.after_measured {
+        Some(m) => (format!("after: {after_label}, on the data less its time-domain terms"), &figure.after, m),
+        None => (format!("after: {after_label}"), &figure.after, &figure.measured),
+    };
+    let before = format!("before: {}", figure.before.label);
     let panels = Panels::new(
         &figure.axis,
         &figure.unit,
         &figure.title,
-        vec![("before".to_string(), &figure.before, &figure.measured[..]), after],
+        vec![(before, &figure.before, &figure.measured[..]), after],
     )?;
     write_figure(&panels, stem)
 }
@@ -169,7 +228,12 @@ fn validate_model(which: &str, m: &ModelCurves) -> Result<(), ReportError> {
     check_positive(FIGURE, &f("z.tau"), m.z.iter().map(|p| p.0))?;
     check_finite(FIGURE, &f("z.z"), m.z.iter().map(|p| p.1))?;
     check_intervals(FIGURE, &f("failing_tau"), &m.failing_tau, true)?;
-    check_finite(FIGURE, &f("fit_error"), [m.fit_error])
+    check_finite(FIGURE, &f("fit_error"), [m.fit_error])?;
+    check_finite(FIGURE, &f("whole_fit_error"), m.whole_fit_error)?;
+    let times: Vec<(f64, f64)> = m.spans.iter().map(|s| (s.start_s, s.end_s)).collect();
+    check_intervals(FIGURE, &f("spans.start_s/end_s"), &times, false)?;
+    let errors = m.spans.iter().map(|s| s.fit_error);
+    check_values(FIGURE, &f("spans.fit_error"), errors, Need::NonNegative, false)
 }
 
 /// One column of an Allan figure: (heading, model, the measurement it was fitted to).
@@ -188,6 +252,10 @@ struct Panels<'a> {
     dev_range: std::ops::Range<f64>,
     /// Half height of the z panel.
     z_bound: f64,
+    /// Time axis of the span panels (`None`: no column has spans, no span panel).
+    time_range: Option<std::ops::Range<f64>>,
+    /// Height of the span panels.
+    span_bound: f64,
 }
 
 impl<'a> Panels<'a> {
@@ -207,13 +275,14 @@ impl<'a> Panels<'a> {
             let bands: Vec<(f64, f64)> = measured.iter().map(|p| (p.dev_low, p.dev_high)).collect();
             check_intervals(FIGURE, &f(".dev_low/dev_high"), &bands, true)?;
         }
-        for (heading, m, _) in &models {
-            let prefix = if heading.is_empty() {
-                "model.".to_string()
-            } else {
-                format!("{heading}.")
+        for (i, (_, m, _)) in models.iter().enumerate() {
+            // Field names as the figure's data has them: `model`, or `before` and `after`.
+            let prefix = match (models.len(), i) {
+                (1, _) => "model.",
+                (_, 0) => "before.",
+                _ => "after.",
             };
-            validate_model(&prefix, m)?;
+            validate_model(prefix, m)?;
         }
 
         let mut term_names: Vec<String> = Vec::new();
@@ -246,6 +315,15 @@ impl<'a> Panels<'a> {
                 .flat_map(|(_, m, _)| m.z.iter().map(|p| p.1.abs())),
         )
         .map_or(0.0, |(_, hi)| hi);
+        let spans = || models.iter().flat_map(|(_, m, _)| &m.spans);
+        let time_range = match min_max(spans().flat_map(|s| [s.start_s, s.end_s])) {
+            Some((lo, hi)) => {
+                check_linear_span(FIGURE, "spans.start_s/end_s", lo, hi)?;
+                Some(lo..hi)
+            }
+            None => None,
+        };
+        let span_max = min_max(spans().map(|s| s.fit_error)).map_or(0.0, |(_, hi)| hi);
         Ok(Panels {
             axis,
             unit,
@@ -256,6 +334,8 @@ impl<'a> Panels<'a> {
             dev_range: log_range(dev_lo, dev_hi, 1.25),
             // Capped so that ±∞ can never reach the axis (z is finite, but 1.1·f64::MAX is not).
             z_bound: (z_max.min(1e300) * 1.1).max(4.0),
+            time_range,
+            span_bound: (span_max.min(1e300) * 1.1).max(4.0),
         })
     }
 
@@ -272,16 +352,26 @@ impl<'a> Panels<'a> {
     ) -> Drawn {
         // τ of the measured grid, for padding shaded spans by half a grid step.
         let grid: Vec<f64> = measured.iter().map(|p| p.tau).collect();
-        let caption = if heading.is_empty() {
-            format!("model {} — fit error {:.2}", model.label, model.fit_error)
-        } else {
-            format!(
-                "{heading}: {} — fit error {:.2}",
-                model.label, model.fit_error
-            )
+        // The whole record's own error beside fit_error when the spans made fit_error larger.
+        let whole = match model.whole_fit_error {
+            Some(whole) if !model.spans.is_empty() && model.fit_error - whole > 0.005 => {
+                format!(" (whole record {whole:.2})")
+            }
+            _ => String::new(),
         };
-        let (h, _) = area.dim_in_pixel();
-        let (top, bottom) = area.split_vertically(h * 66 / 100);
+        let caption = format!("{heading} — fit error {:.2}{whole}", model.fit_error);
+        let (h, w) = (area.dim_in_pixel().1, area.dim_in_pixel().0);
+        // A long caption (a model of many terms, the whole record's error) shrinks to its column
+        // instead of running into the next one: about 0.55 em per character.
+        let caption_size = (19.0_f64).min((w as f64 - 20.0) / (0.55 * caption.chars().count() as f64)).max(13.0);
+        let (top, bottom) = area.split_vertically(h * if self.time_range.is_some() { 54 } else { 66 } / 100);
+        let (bottom, span_area) = match &self.time_range {
+            Some(_) => {
+                let (z_area, span_area) = bottom.split_vertically(bottom.dim_in_pixel().1 / 2);
+                (z_area, Some(span_area))
+            }
+            None => (bottom, None),
+        };
         let spans: Vec<(f64, f64)> = model
             .failing_tau
             .iter()
@@ -290,7 +380,7 @@ impl<'a> Panels<'a> {
 
         // --- σ(τ) panel
         let mut chart = ChartBuilder::on(&top)
-            .caption(caption, text(19))
+            .caption(caption, text(caption_size as u32))
             .margin(8)
             .x_label_area_size(30)
             .y_label_area_size(70)
@@ -397,6 +487,65 @@ impl<'a> Panels<'a> {
             };
             Circle::new((tau, symlog(z)), 3, colour.filled())
         }))?;
+        match (span_area, &self.time_range) {
+            (Some(area), Some(times)) if !model.spans.is_empty() => self.draw_spans(&area, times, &model.spans),
+            _ => Ok(()),
+        }
+    }
+
+    /// The span panel: each span's fit error (the RMS of its z) as a segment over the span's time,
+    /// above the zero line for a span louder than the model and below it for a quieter one, on
+    /// the z panel's symmetric log scale; spans above 3 red and shaded.
+    fn draw_spans<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+        times: &std::ops::Range<f64>,
+        spans: &[SpanScore],
+    ) -> Drawn {
+        let b = symlog(self.span_bound);
+        let mut chart = ChartBuilder::on(area)
+            .margin(8)
+            .x_label_area_size(42)
+            .y_label_area_size(70)
+            .build_cartesian_2d(times.clone(), -b..b)?;
+        mesh_look(&mut chart.configure_mesh())
+            .x_desc("time of the span [s], from the first sample")
+            .y_desc("span fit error (− quieter)")
+            .x_labels(10)
+            .y_labels(0)
+            .x_label_formatter(&plain_label)
+            .draw()?;
+        // Failing spans merged where they overlap (spans overlap by half), shaded once.
+        let mut failing: Vec<&SpanScore> = spans.iter().filter(|s| s.fit_error > 3.0).collect();
+        failing.sort_by(|a, b| a.start_s.total_cmp(&b.start_s));
+        let mut merged: Vec<(f64, f64)> = Vec::new();
+        for s in failing {
+            match merged.last_mut() {
+                Some(last) if s.start_s <= last.1 => last.1 = last.1.max(s.end_s),
+                _ => merged.push((s.start_s, s.end_s)),
+            }
+        }
+        chart.draw_series(merged.iter().map(|&(lo, hi)| Rectangle::new([(lo, -b), (hi, b)], SHADE.filled())))?;
+        let (t0, t1) = (times.start, times.end);
+        let ticks = z_ticks(self.span_bound);
+        chart.draw_series(ticks.iter().map(|&t| PathElement::new(vec![(t0, t), (t1, t)], GRID.stroke_width(1))))?;
+        let labels: Vec<((i32, i32), String)> = ticks
+            .iter()
+            .map(|&t| (chart.backend_coord(&(t0, t)), plain_label(&symlog_inverse(t).round())))
+            .collect();
+        draw_ticks(area, &labels, false)?;
+        chart.draw_series(LineSeries::new([(t0, 0.0), (t1, 0.0)], BLACK.stroke_width(1)))?;
+        for level in [-3.0, 3.0] {
+            chart.draw_series(DashedLineSeries::new([(t0, symlog(level)), (t1, symlog(level))], 8, 5, ALERT.stroke_width(2)))?;
+        }
+        let colour = |s: &SpanScore| if s.fit_error > 3.0 { ALERT } else { RGBColor(60, 60, 60) };
+        chart.draw_series(spans.iter().map(|s| {
+            let y = symlog(s.signed());
+            PathElement::new(vec![(s.start_s, y), (s.end_s, y)], colour(s).stroke_width(2))
+        }))?;
+        chart.draw_series(spans.iter().map(|s| {
+            Circle::new(((s.start_s + s.end_s) / 2.0, symlog(s.signed())), 3, colour(s).filled())
+        }))?;
         Ok(())
     }
 
@@ -425,13 +574,18 @@ impl<'a> Panels<'a> {
         }
         entries.push((LegendMark::Fill(SHADE), "failing τ (|z| > 3)".to_string()));
         entries.push((LegendMark::Dashed(ALERT), "|z| = 3".to_string()));
+        if self.time_range.is_some() {
+            entries.push((LegendMark::Line(RGBColor(60, 60, 60), 2), "fit error of a span".to_string()));
+            entries.push((LegendMark::Fill(SHADE), "failing span (> 3)".to_string()));
+        }
         entries
     }
 }
 
 impl Figure for Panels<'_> {
     fn size(&self) -> (u32, u32) {
-        (250 + 950 * self.models.len() as u32, 900)
+        let height = if self.time_range.is_some() { 1150 } else { 900 };
+        (250 + 950 * self.models.len() as u32, height)
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Drawn {

@@ -22,7 +22,7 @@ mod surface;
 mod window;
 
 pub use allan::{
-    write_allan, write_allan_comparison, AllanComparison, AllanFigure, MeasuredPoint, ModelCurves,
+    write_allan, write_allan_comparison, AllanComparison, AllanFigure, MeasuredPoint, ModelCurves, SpanScore,
     Term,
 };
 pub use surface::{write_davar_surface, DavarSurface, SURFACE_MAX_COLUMNS};

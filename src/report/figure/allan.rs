@@ -335,7 +335,7 @@ impl<'a> Panels<'a> {
             // Capped so that ±∞ can never reach the axis (z is finite, but 1.1·f64::MAX is not).
             z_bound: (z_max.min(1e300) * 1.1).max(4.0),
             time_range,
-            span_bound: (span_max.min(1e300) * 1.1).max(4.0),
+            span_bound: tick_ceiling(span_max.min(1e300) * 1.1),
         })
     }
 
@@ -693,6 +693,21 @@ fn z_ticks(bound: f64) -> Vec<f64> {
     ticks
 }
 
+/// The smallest of 4, 10, 30, 100, 300, … that is at least `v`: a panel height whose top tick
+/// ([`z_ticks`]) reaches its largest value, so that the values near the top can be read.
+fn tick_ceiling(v: f64) -> f64 {
+    let mut bound = 4.0;
+    let mut decade = 10.0;
+    while bound < v && decade < 1e300 {
+        bound = if bound < decade { decade } else { 3.0 * decade };
+        if bound == 3.0 * decade {
+            decade *= 10.0;
+        }
+    }
+    // Beyond the last decade a double holds: the value itself.
+    bound.max(v)
+}
+
 /// Widens a failing span \[lo, hi\] by half a grid step on each side (geometric midpoints to the
 /// neighbouring τ of `grid`), so a single failing τ still shows as a band.
 fn pad_span(lo: f64, hi: f64, grid: &[f64]) -> (f64, f64) {
@@ -762,6 +777,13 @@ mod tests {
         assert!(close(&runs[0], &want), "{runs:?}");
         // Entirely below: nothing.
         assert!(clipped_runs(&[(1.0, 1e-5), (2.0, 1e-6)], 0.1, 10.0).is_empty());
+    }
+
+    #[test]
+    fn span_panels_reach_their_next_tick() {
+        let got: Vec<f64> = [0.0, 3.9, 4.0, 4.1, 9.0, 10.0, 10.5, 31.0, 250.0].map(tick_ceiling).to_vec();
+        assert_eq!(got, [4.0, 4.0, 4.0, 10.0, 10.0, 10.0, 30.0, 100.0, 300.0]);
+        assert!(tick_ceiling(1e300) >= 1e300 && tick_ceiling(1e300).is_finite());
     }
 
     #[test]

@@ -7,6 +7,9 @@ use super::*;
 
 const FIGURE: &str = "allan";
 
+/// The level beyond which a z, or a span's fit error, fails: |z| > 3 (docs/design.md §5).
+const FAILING: f64 = 3.0;
+
 /// One measured Allan deviation with its confidence interval.
 ///
 /// Plain data so that the figure does not depend on the estimator's types.
@@ -360,7 +363,7 @@ impl<'a> Panels<'a> {
             _ => String::new(),
         };
         let caption = format!("{heading} — fit error {:.2}{whole}", model.fit_error);
-        let (h, w) = (area.dim_in_pixel().1, area.dim_in_pixel().0);
+        let (w, h) = area.dim_in_pixel();
         // A long caption (a model of many terms, the whole record's error) shrinks to its column
         // instead of running into the next one: about 0.55 em per character.
         let caption_size = (19.0_f64).min((w as f64 - 20.0) / (0.55 * caption.chars().count() as f64)).max(13.0);
@@ -467,7 +470,7 @@ impl<'a> Panels<'a> {
             [(t0, 0.0), (t1, 0.0)],
             BLACK.stroke_width(1),
         ))?;
-        for level in [-3.0, 3.0] {
+        for level in [-FAILING, FAILING] {
             zchart.draw_series(DashedLineSeries::new(
                 [(t0, symlog(level)), (t1, symlog(level))],
                 8,
@@ -480,7 +483,7 @@ impl<'a> Panels<'a> {
             RGBColor(90, 90, 90).stroke_width(1),
         ))?;
         zchart.draw_series(model.z.iter().map(|&(tau, z)| {
-            let colour = if z.abs() > 3.0 {
+            let colour = if z.abs() > FAILING {
                 ALERT
             } else {
                 RGBColor(60, 60, 60)
@@ -516,7 +519,7 @@ impl<'a> Panels<'a> {
             .x_label_formatter(&plain_label)
             .draw()?;
         // Failing spans merged where they overlap (spans overlap by half), shaded once.
-        let mut failing: Vec<&SpanScore> = spans.iter().filter(|s| s.fit_error > 3.0).collect();
+        let mut failing: Vec<&SpanScore> = spans.iter().filter(|s| s.fit_error > FAILING).collect();
         failing.sort_by(|a, b| a.start_s.total_cmp(&b.start_s));
         let mut merged: Vec<(f64, f64)> = Vec::new();
         for s in failing {
@@ -535,10 +538,10 @@ impl<'a> Panels<'a> {
             .collect();
         draw_ticks(area, &labels, false)?;
         chart.draw_series(LineSeries::new([(t0, 0.0), (t1, 0.0)], BLACK.stroke_width(1)))?;
-        for level in [-3.0, 3.0] {
+        for level in [-FAILING, FAILING] {
             chart.draw_series(DashedLineSeries::new([(t0, symlog(level)), (t1, symlog(level))], 8, 5, ALERT.stroke_width(2)))?;
         }
-        let colour = |s: &SpanScore| if s.fit_error > 3.0 { ALERT } else { RGBColor(60, 60, 60) };
+        let colour = |s: &SpanScore| if s.fit_error > FAILING { ALERT } else { RGBColor(60, 60, 60) };
         chart.draw_series(spans.iter().map(|s| {
             let y = symlog(s.signed());
             PathElement::new(vec![(s.start_s, y), (s.end_s, y)], colour(s).stroke_width(2))
@@ -696,16 +699,18 @@ fn z_ticks(bound: f64) -> Vec<f64> {
 /// The smallest of 4, 10, 30, 100, 300, … that is at least `v`: a panel height whose top tick
 /// ([`z_ticks`]) reaches its largest value, so that the values near the top can be read.
 fn tick_ceiling(v: f64) -> f64 {
-    let mut bound = 4.0;
+    if v <= 4.0 {
+        return 4.0;
+    }
     let mut decade = 10.0;
-    while bound < v && decade < 1e300 {
-        bound = if bound < decade { decade } else { 3.0 * decade };
-        if bound == 3.0 * decade {
-            decade *= 10.0;
+    while decade < 1e300 {
+        if let Some(bound) = [decade, 3.0 * decade].into_iter().find(|&b| b >= v) {
+            return bound;
         }
+        decade *= 10.0;
     }
     // Beyond the last decade a double holds: the value itself.
-    bound.max(v)
+    v
 }
 
 /// Widens a failing span \[lo, hi\] by half a grid step on each side (geometric midpoints to the

@@ -40,7 +40,10 @@ fn recording() -> Option<PathBuf> {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/reference/real/adis16405_static_run1.csv.gz");
     if !p.exists() {
-        println!("skipped: ../shared/reference/real/adis16405_static_run1.csv.gz is absent");
+        // Through the stderr handle, not println!: the test harness captures the print macros,
+        // and a skip that nobody sees reads as a pass.
+        use std::io::Write;
+        let _ = writeln!(std::io::stderr(), "real_adis16405: skipped: {} is absent", p.display());
     }
     p.exists().then_some(p)
 }

@@ -123,7 +123,13 @@ fn a_model_failing_in_time_says_so_on_its_failing_tau_line() {
                 in_time += 1;
                 assert!(failing.contains("the failure is in time"), "{axis}: {failing}");
                 let spans = !a["failing_spans"].as_array().unwrap().is_empty();
-                assert_eq!(lines.iter().any(|l| l.starts_with("  failing in time: ")), spans, "{axis}");
+                let in_time_line = lines.iter().find(|l| l.starts_with("  failing in time: "));
+                assert_eq!(in_time_line.is_some(), spans, "{axis}");
+                // N,B,K fitted to the whole record averages the quiet and the loud thirds: the
+                // spans over the burst lie above it, those before and after it below.
+                if let Some(line) = in_time_line {
+                    assert!(line.contains(" s, louder and quieter in turn"), "{axis}: {line}");
+                }
             }
             (true, false) => assert_eq!(*failing, "  failing tau: none", "{axis}"),
             (false, _) => assert!(!failing.contains("none"), "{axis}: {failing}"),
@@ -131,4 +137,14 @@ fn a_model_failing_in_time_says_so_on_its_failing_tau_line() {
     }
     // The seed's recording: the noise triples for a third of the record, on every axis.
     assert!(in_time > 0, "{text}");
+}
+
+/// A failing interval says on which side of the model its spans lie: on bags/effects, gyro_z's
+/// spans all lie above N,B,K (its truth adds a Gauss–Markov bias and a g-sensitivity to the white
+/// noise, and the whole-record fit follows neither).
+#[test]
+fn a_failing_interval_says_whether_the_noise_there_is_louder_or_quieter() {
+    let (text, _) = text_and_json(&["fit", EFFECTS, "--model", "N,B,K", "--axis", "gyro_z"]);
+    let line = block(&text, "gyro_z").into_iter().find(|l| l.starts_with("  failing in time: ")).unwrap();
+    assert!(line.starts_with("  failing in time: 0-120 s, louder than the model (whole record alone: fit_error "), "{line}");
 }

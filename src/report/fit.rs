@@ -8,7 +8,7 @@
 use std::io::Write;
 
 use crate::model::diagnose::Diagnosis;
-use crate::model::fit::{FittedModel, ParamValue};
+use crate::model::fit::{FittedModel, ParamValue, FAILING_Z};
 use crate::model::output::{measured_points, model_curves};
 use crate::report::table::{sig, Table};
 use crate::report::units::{Coefficient, Sensor};
@@ -137,12 +137,12 @@ pub fn write_fit(w: &mut dyn Write, f: &FittedModel, failing: f64) -> std::io::R
         let spans: Vec<String> = f
             .failing_spans
             .iter()
-            .map(|s| format!("{}-{} s", short(s.start_s, 4), short(s.end_s, 4)))
+            .map(|s| format!("{}-{} s, {}", short(s.start_s, 4), short(s.end_s, 4), side_of(f, s)))
             .collect();
         writeln!(
             w,
             "  failing in time: {} (whole record alone: fit_error {:.2})",
-            spans.join(", "),
+            spans.join("; "),
             f.whole_fit_error
         )?;
     }
@@ -222,4 +222,19 @@ pub fn allan_table(f: &FittedModel) -> Table {
         ]);
     }
     t
+}
+
+/// Which side of the model the failing spans inside `interval` lie on, by the sign of their mean z
+/// (`SpanCheck::mean_z`): the noise there louder than the model, quieter, or both in turn (a model
+/// that averages two levels fits neither).
+fn side_of(f: &FittedModel, interval: &crate::model::fit::Span) -> &'static str {
+    let inside = f.spans.iter().filter(|c| {
+        c.fit_error > FAILING_Z && c.span.start_s >= interval.start_s && c.span.end_s <= interval.end_s
+    });
+    let (louder, quieter) = inside.fold((false, false), |(l, q), c| (l || c.mean_z >= 0.0, q || c.mean_z < 0.0));
+    match (louder, quieter) {
+        (true, false) => "louder than the model",
+        (false, true) => "quieter than the model",
+        _ => "louder and quieter in turn",
+    }
 }

@@ -5,7 +5,7 @@
 use fdavar::analysis::{Analysis, AnalysisConfig};
 use fdavar::bag::{BagMessage, BagReader};
 use fdavar::model::{FittedModel, ModelSpec};
-use fdavar::report::fit::ALLAN_CSV_COLUMNS;
+use fdavar::report::fit::{ALLAN_CSV_COLUMNS, SPANS_CSV_COLUMNS};
 use fdavar::signal::Axis;
 use std::path::Path;
 use std::process::Command;
@@ -32,11 +32,16 @@ fn library_fits(bag: &Path, model: &str, axes: &[Axis]) -> Vec<FittedModel> {
     axes.iter().map(|&a| analysis.fit(a).unwrap()).collect()
 }
 
-/// The CSV's rows as numbers, after checking its header.
+/// The Allan CSV's rows as numbers, after checking its header.
 fn read_csv(path: &Path) -> Vec<Vec<f64>> {
+    read_csv_with(path, &ALLAN_CSV_COLUMNS)
+}
+
+/// A CSV's rows as numbers, after checking that its header is `columns`.
+fn read_csv_with(path: &Path, columns: &[&str]) -> Vec<Vec<f64>> {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut lines = text.lines();
-    assert_eq!(lines.next(), Some(ALLAN_CSV_COLUMNS.join(",").as_str()));
+    assert_eq!(lines.next(), Some(columns.join(",").as_str()));
     lines
         .map(|l| l.split(',').map(|c| c.parse::<f64>().unwrap_or_else(|e| panic!("{l}: {e}"))).collect())
         .collect()
@@ -58,7 +63,7 @@ fn csv_holds_the_fits_curve_model_and_z() {
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
-    assert_eq!(files.len(), 2, "{files:?}");
+    assert_eq!(files.len(), 4, "{files:?}");
 
     for (fit, reported) in library_fits(Path::new(CLEAN), "N,B,K", &axes).iter().zip(json["axes"].as_array().unwrap()) {
         // The same run as the JSON's.
@@ -90,6 +95,15 @@ fn csv_holds_the_fits_curve_model_and_z() {
             let ulps = 8.0 * f64::EPSILON * adev * adev / scale;
             assert!((z_from_columns - z).abs() <= ulps, "{} τ = {}: z {z} vs {z_from_columns}", fit.axis, p.tau);
         }
+        // The spans: one row per span of the fit, every number in full.
+        let spans = read_csv_with(&dir.path().join(format!("spans_{}.csv", fit.axis)), &SPANS_CSV_COLUMNS);
+        assert_eq!(spans.len(), fit.spans.len(), "{}: one row per span", fit.axis);
+        assert!(spans.len() >= 5, "{}: {} spans", fit.axis, spans.len());
+        for (row, c) in spans.iter().zip(&fit.spans) {
+            assert_eq!(row.as_slice(), [c.span.start_s, c.span.end_s, c.fit_error, c.mean_z].as_slice(), "{}", fit.axis);
+            // A mean is never larger in size than the RMS of the same numbers.
+            assert!(c.mean_z.abs() <= c.fit_error * (1.0 + 1e-12), "{}: {row:?}", fit.axis);
+        }
         // The whole-record fit_error is the RMS of the CSV's z.
         let zs: Vec<f64> = rows.iter().map(|r| r[7]).collect();
         let rms = (zs.iter().map(|z| z * z).sum::<f64>() / zs.len() as f64).sqrt();
@@ -109,7 +123,9 @@ fn diagnose_csv_equals_fit_csv() {
             .unwrap();
         assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
     }
-    let read = |c: &str| std::fs::read_to_string(dir.path().join(c).join("allan_gyro_z.csv")).unwrap();
-    assert_eq!(read("fit"), read("diagnose"));
-    assert!(read("fit").lines().count() > 20);
+    let read = |c: &str, f: &str| std::fs::read_to_string(dir.path().join(c).join(f)).unwrap();
+    assert_eq!(read("fit", "allan_gyro_z.csv"), read("diagnose", "allan_gyro_z.csv"));
+    assert!(read("fit", "allan_gyro_z.csv").lines().count() > 20);
+    assert_eq!(read("fit", "spans_gyro_z.csv"), read("diagnose", "spans_gyro_z.csv"));
+    assert!(read("fit", "spans_gyro_z.csv").lines().count() > 5);
 }

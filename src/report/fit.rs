@@ -224,6 +224,24 @@ pub fn allan_table(f: &FittedModel) -> Table {
     t
 }
 
+/// The columns of [`spans_table`], in order.
+pub const SPANS_CSV_COLUMNS: [&str; 4] = ["start_s", "end_s", "fit_error", "mean_z"];
+
+/// The model checked on each span of the record, one row per span in time order
+/// (`fdavar fit|diagnose --csv DIR`, `spans_<axis>.csv`): the numbers of the figure's span panel.
+///
+/// Columns ([`SPANS_CSV_COLUMNS`]): `start_s`, `end_s` the span, seconds from the first sample;
+/// `fit_error` the RMS of z over the span's own τ grid against the whole-record model; `mean_z`
+/// their mean (positive: the span louder than the model). Numbers in full, as [`allan_table`].
+/// No rows when the record is too short to be cut into spans.
+pub fn spans_table(f: &FittedModel) -> Table {
+    let mut t = Table::new(SPANS_CSV_COLUMNS);
+    for c in &f.spans {
+        t.push([c.span.start_s, c.span.end_s, c.fit_error, c.mean_z].map(|v| v.to_string()));
+    }
+    t
+}
+
 /// Which side of the model the failing spans inside `interval` lie on, by the sign of their mean z
 /// (`SpanCheck::mean_z`): the noise there louder than the model, quieter, or both in turn (a model
 /// that averages two levels fits neither).

@@ -13,7 +13,7 @@ use fdavar::model::output::{allan_figure, AxisReport, Report};
 use fdavar::model::spec::axis_models;
 use fdavar::model::{FittedModel, ModelSpec};
 use fdavar::pipeline::{AxisRow, DavarConfig, SigmaRefMode};
-use fdavar::report::fit::allan_table;
+use fdavar::report::fit::{allan_table, spans_table};
 pub use fdavar::report::fit::write_fit;
 use fdavar::results::{axis_state, ResultsWriter, WholeRun};
 use fdavar::signal::Axis;
@@ -76,8 +76,10 @@ pub struct Common {
     /// Directory for figures (PNG + SVG per axis).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Directory for one CSV per axis, `allan_<axis>.csv`: per τ the measured Allan deviation
-    /// with its 68.3 % bounds and EDF, the model's deviation and z (columns in docs/model.md).
+    /// Directory for two CSVs per axis: `allan_<axis>.csv`, per τ the measured Allan deviation
+    /// with its 68.3 % bounds and EDF, the model's deviation and z; `spans_<axis>.csv`, per span
+    /// of the record its fit error and mean z against the whole-record model (columns in
+    /// docs/model.md).
     #[arg(long, value_name = "DIR")]
     pub csv: Option<PathBuf>,
     /// Analyse only the first N IMU messages of the recording (counted as recorded, bad ones
@@ -175,10 +177,12 @@ pub fn write_files<'a>(
                 .with_context(|| format!("cannot write the figure of {}", f.axis))?;
         }
         if let Some(dir) = &common.csv {
-            let path = dir.join(format!("allan_{}.csv", f.axis));
-            std::fs::create_dir_all(dir)
-                .and_then(|()| std::fs::write(&path, allan_table(f).to_csv()))
-                .with_context(|| format!("cannot write {}", path.display()))?;
+            for (name, table) in [("allan", allan_table(f)), ("spans", spans_table(f))] {
+                let path = dir.join(format!("{name}_{}.csv", f.axis));
+                std::fs::create_dir_all(dir)
+                    .and_then(|()| std::fs::write(&path, table.to_csv()))
+                    .with_context(|| format!("cannot write {}", path.display()))?;
+            }
         }
     }
     Ok(())

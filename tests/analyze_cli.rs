@@ -54,3 +54,51 @@ fn analyze_says_what_davar_and_diagnose_say() {
     assert_eq!(analyze["davar"]["tau0"], davar["tau0"]);
     assert_eq!(analyze["davar"]["irregularities"], davar["irregularities"]);
 }
+
+/// `--out` and `--csv`: every figure and CSV of the job from the one read of the bag, the same
+/// bytes as `fdavar davar --out` and `fdavar diagnose --out --csv` write from their own reads.
+#[test]
+fn analyze_writes_the_figures_and_csvs_of_davar_and_diagnose() {
+    let bag = concat!(env!("CARGO_MANIFEST_DIR"), "/bags/effects");
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name);
+    let run = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_fdavar")).args(args).output().unwrap();
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    };
+    let p = |name: &str| path(name).to_str().unwrap().to_string();
+    let axes = ["--axis", "gyro_y", "--axis", "accel_z"];
+    run(&[&["analyze", bag, "--out", &p("analyze_out"), "--csv", &p("analyze_csv"), "--jobs", "2"][..], &axes].concat());
+    run(&[&["diagnose", bag, "--out", &p("diagnose_out"), "--csv", &p("diagnose_csv")][..], &axes].concat());
+    run(&["davar", bag, "--out", &p("davar_out")]);
+    let files = |d: &str| -> Vec<String> {
+        let mut names: Vec<String> =
+            std::fs::read_dir(path(d)).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        names.sort();
+        names
+    };
+    // Every file diagnose wrote, and davar's of the two axes, the same bytes.
+    let mut want: Vec<(String, String)> = files("diagnose_out").into_iter().map(|f| ("diagnose_out".to_string(), f)).collect();
+    want.extend(
+        files("davar_out")
+            .into_iter()
+            .filter(|f| f.contains("gyro_y") || f.contains("accel_z"))
+            .map(|f| ("davar_out".to_string(), f)),
+    );
+    let svgs: Vec<&(String, String)> = want.iter().filter(|(_, f)| f.ends_with(".svg")).collect();
+    // Per axis: the Allan figure, the DAVAR surface and window trace, and at least one suggestion.
+    assert!(svgs.len() >= 8, "{want:?}");
+    for (from, name) in &svgs {
+        let read = |d: &str| std::fs::read(path(d).join(name)).unwrap();
+        assert!(read(from) == read("analyze_out"), "{name} differs from {from}");
+    }
+    // And nothing else.
+    let mut want_names: Vec<String> = want.iter().map(|(_, f)| f.clone()).collect();
+    want_names.sort();
+    assert_eq!(files("analyze_out"), want_names);
+    assert_eq!(files("analyze_csv"), files("diagnose_csv"));
+    for name in files("diagnose_csv") {
+        let read = |d: &str| std::fs::read(path(d).join(&name)).unwrap();
+        assert!(read("diagnose_csv") == read("analyze_csv"), "{name}");
+    }
+}

@@ -1,6 +1,6 @@
-//! `fdavar analyze BAG [--model SPEC] [--params FILE] [--axis A]... [--json] [--jobs N]`: the whole
-//! job in one read of the bag: F-DAVAR rows and change events of every axis, the noise model's
-//! fit and the diagnosis.
+//! `fdavar analyze BAG [--model SPEC] [--params FILE] [--axis A]... [--json] [--jobs N] [--out DIR]
+//! [--csv DIR]`: the whole job in one read of the bag: F-DAVAR rows and change events of every
+//! axis, the noise model's fit and the diagnosis, and every figure and CSV of them.
 //!
 //! Why one command: `fdavar davar` and `fdavar diagnose` each decode the bag, and each runs its
 //! axes one after the other (issue 11). Here the main thread decodes the bag once and grows the
@@ -11,7 +11,7 @@
 //! axes are diagnosed in parallel, while the row workers finish. Memory: the record (bounded, see [`fdavar::model::record`]), the
 //! pipelines' rings and at most [`CHUNKS_IN_FLIGHT`] chunks per worker.
 
-use crate::diagnose::{diagnose_all, write_diagnosis};
+use crate::diagnose::{diagnose_all, write_diagnosis, write_diagnosis_files};
 use crate::fit::{load_with, outcome, print_json, Selection};
 use crate::{Outcome, UsageError};
 use anyhow::Context;
@@ -19,6 +19,7 @@ use fdavar::model::output::{AxisReport, Report};
 use fdavar::model::ModelSpec;
 use fdavar::davar::SharedIntervals;
 use fdavar::pipeline::{AxisEvent, Output, Pipeline, RowSummary, SigmaRefMode};
+use fdavar::report::davar::DavarFigures;
 use fdavar::signal::{Axis, ImuSample, Irregularities};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -64,6 +65,15 @@ pub struct Args {
     /// Threads for the axes (default: the number of CPUs), at least 1.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
     pub jobs: Option<u16>,
+    /// Directory for every figure of the job, per axis (PNG + SVG): `davar_surface_<axis>` and
+    /// `window_trace_<axis>` as `fdavar davar --out` draws them, `allan_<axis>` and
+    /// `suggestion_<axis>_<effect>` as `fdavar diagnose --out` does, from the one read of the bag.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Directory for the fit's CSVs per axis, `allan_<axis>.csv` and `spans_<axis>.csv`, as
+    /// `fdavar diagnose --csv` writes them (columns in docs/model.md).
+    #[arg(long, value_name = "DIR")]
+    pub csv: Option<PathBuf>,
 }
 
 /// The `davar` member of the JSON.
@@ -87,10 +97,13 @@ struct Rows {
     pipeline: Pipeline,
     summaries: Vec<RowSummary>,
     events: Vec<AxisEvent>,
+    /// The figures of its axes' rows, when `--out` asks for them.
+    figures: Vec<DavarFigures>,
 }
 
-/// Runs `pipeline` on every chunk `rx` delivers, keeping the summary and events of its rows.
-fn run_rows(mut pipeline: Pipeline, rx: Receiver<Arc<[ImuSample]>>) -> Rows {
+/// Runs `pipeline` on every chunk `rx` delivers, keeping the summary and events of its rows (and
+/// gathering them into `figures`, one per axis the figures are asked for).
+fn run_rows(mut pipeline: Pipeline, rx: Receiver<Arc<[ImuSample]>>, mut figures: Vec<DavarFigures>) -> Rows {
     let mut out = Output::default();
     let mut summaries: Vec<RowSummary> = Vec::new();
     let mut events = Vec::new();
@@ -100,6 +113,7 @@ fn run_rows(mut pipeline: Pipeline, rx: Receiver<Arc<[ImuSample]>>) -> Rows {
                 Some(s) => s.add(r),
                 None => summaries.push(RowSummary::of(r)),
             }
+            figures.iter_mut().for_each(|f| f.push(r));
         }
         pipeline.recycle_all(&mut out.rows);
         events.append(&mut out.events);
@@ -112,7 +126,7 @@ fn run_rows(mut pipeline: Pipeline, rx: Receiver<Arc<[ImuSample]>>) -> Rows {
     }
     pipeline.finish(&mut out);
     take(&mut pipeline, &mut out);
-    Rows { pipeline, summaries, events }
+    Rows { pipeline, summaries, events, figures }
 }
 
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
@@ -139,9 +153,14 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let (analysis, diagnoses, rows) = std::thread::scope(|scope| -> anyhow::Result<_> {
         let (senders, workers): (Vec<SyncSender<Arc<[ImuSample]>>>, Vec<_>) = pipelines
             .into_iter()
-            .map(|p| {
+            .zip(&groups)
+            .map(|(p, group)| {
+                let figures = match args.out {
+                    Some(_) => crate::davar::figures_of(&davar, group),
+                    None => Vec::new(),
+                };
                 let (tx, rx) = sync_channel(CHUNKS_IN_FLIGHT);
-                (tx, scope.spawn(move || run_rows(p, rx)))
+                (tx, scope.spawn(move || run_rows(p, rx, figures)))
             })
             .unzip();
         let mut chunk = Vec::with_capacity(CHUNK);
@@ -188,6 +207,13 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             write_diagnosis(&mut out, d).context("writing output")?;
         }
     }
+    if let Some(dir) = &args.out {
+        let title = crate::fit::title(&args.bag);
+        for mut r in rows {
+            crate::davar::write_figures(dir, &mut r.figures, &r.events, &title)?;
+        }
+    }
+    write_diagnosis_files(args.out.as_deref(), args.csv.as_deref(), &args.bag, &diagnoses)?;
     let fits: Vec<_> = diagnoses.into_iter().map(|d| d.fit).collect();
     Ok(outcome(&analysis, &fits, args.strict, "the suggestions per axis name what would explain it"))
 }

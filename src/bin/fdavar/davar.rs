@@ -161,12 +161,8 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         axes: BTreeMap::new(),
         first_window: run.config.policy.build().initial(),
     };
-    let limits = match run.config.policy {
-        PolicyConfig::Fixed { length } => (length, length),
-        PolicyConfig::Sign { min, max, .. } | PolicyConfig::Proportional { min, max, .. } => (min, max),
-    };
     let mut figures: Vec<DavarFigures> = match &args.out {
-        Some(_) => run.axes.iter().map(|&a| DavarFigures::new(a, Some(limits))).collect(),
+        Some(_) => figures_of(&run.config, &run.axes),
         None => Vec::new(),
     };
     // Samples stream from the input and rows are printed as they come: a long recording is held
@@ -213,9 +209,19 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     Ok(Outcome::Ok)
 }
 
+/// The figure gatherers of `axes` under `config`'s window policy (its λ1 and λ2 drawn on the
+/// window trace).
+pub fn figures_of(config: &DavarConfig, axes: &[Axis]) -> Vec<DavarFigures> {
+    let limits = match config.policy {
+        PolicyConfig::Fixed { length } => (length, length),
+        PolicyConfig::Sign { min, max, .. } | PolicyConfig::Proportional { min, max, .. } => (min, max),
+    };
+    axes.iter().map(|&a| DavarFigures::new(a, Some(limits))).collect()
+}
+
 /// Writes `davar_surface_<axis>` and `window_trace_<axis>` (PNG + SVG) in `dir` for each axis
 /// that has rows.
-fn write_figures(
+pub fn write_figures(
     dir: &Path,
     figures: &mut [DavarFigures],
     events: &[AxisEvent],

@@ -11,7 +11,7 @@ use fdavar::model::{Diagnosis, ModelSpec};
 use fdavar::report::fit::write_suggestions;
 use fdavar::signal::Axis;
 use fdavar::results::WholeRun;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Tell which physical effect the noise model misses on each axis.
 ///
@@ -83,21 +83,32 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             write_diagnosis(&mut out, d).context("writing output")?;
         }
     }
-    write_files(&args.common, bag, diagnoses.iter().map(|d| &d.fit))?;
-    if let Some(dir) = &args.common.out {
-        let name = title(bag);
-        for d in &diagnoses {
-            let axis = d.fit.axis;
-            // One before/after figure per suggestion, each from the model of the one before: the
-            // error falling step by step, as the rounds added them.
-            let befores = std::iter::once(&d.fit).chain(&d.after);
-            for ((s, after), before) in d.suggestions.iter().zip(&d.after).zip(befores) {
-                let stem = dir.join(format!("suggestion_{axis}_{}", s.effect));
-                fdavar::report::figure::write_allan_comparison(&comparison_figure(before, after, &name), &stem)
-                    .with_context(|| format!("cannot write the before/after figure of {axis} with {}", s.effect))?;
-            }
-        }
-    }
+    write_diagnosis_files(args.common.out.as_deref(), args.common.csv.as_deref(), bag, &diagnoses)?;
     let fits: Vec<_> = diagnoses.into_iter().map(|d| d.fit).collect();
     Ok(outcome(&analysis, &fits, args.common.strict, "the suggestions per axis name what would explain it"))
+}
+
+/// `--out DIR` and `--csv DIR` of a diagnosis (also `fdavar analyze`'s): per axis the Allan
+/// figure and CSVs of the fit ([`write_files`]), and one before/after figure per suggestion,
+/// `suggestion_<axis>_<effect>`, each from the model of the one before: the error falling step by
+/// step, as the rounds added them.
+pub fn write_diagnosis_files(
+    out: Option<&Path>,
+    csv: Option<&Path>,
+    bag: &Path,
+    diagnoses: &[Diagnosis],
+) -> anyhow::Result<()> {
+    write_files(out, csv, bag, diagnoses.iter().map(|d| &d.fit))?;
+    let Some(dir) = out else { return Ok(()) };
+    let name = title(bag);
+    for d in diagnoses {
+        let axis = d.fit.axis;
+        let befores = std::iter::once(&d.fit).chain(&d.after);
+        for ((s, after), before) in d.suggestions.iter().zip(&d.after).zip(befores) {
+            let stem = dir.join(format!("suggestion_{axis}_{}", s.effect));
+            fdavar::report::figure::write_allan_comparison(&comparison_figure(before, after, &name), &stem)
+                .with_context(|| format!("cannot write the before/after figure of {axis} with {}", s.effect))?;
+        }
+    }
+    Ok(())
 }

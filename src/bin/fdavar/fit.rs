@@ -132,7 +132,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         let (messages, until_s) = (analysis.messages(), analysis.duration_s().unwrap_or(0.0));
         results.finish(fits.iter().map(|f| (f.axis, WholeRun::from_fit(f, messages, until_s))))?;
     }
-    write_files(&args.common, &args.bag, fits.iter())?;
+    write_files(args.common.out.as_deref(), args.common.csv.as_deref(), &args.bag, fits.iter())?;
     Ok(outcome(&analysis, &fits, args.common.strict, "`fdavar diagnose` suggests what is missing"))
 }
 
@@ -166,17 +166,18 @@ pub fn outcome(analysis: &Analysis, fits: &[FittedModel], strict: bool, hint: &s
 /// Writes what `--out` (the Allan figure) and `--csv` (the Allan curve, model and z) ask for, per
 /// fitted axis.
 pub fn write_files<'a>(
-    common: &Common,
+    out: Option<&Path>,
+    csv: Option<&Path>,
     bag: &Path,
     fits: impl Iterator<Item = &'a FittedModel>,
 ) -> anyhow::Result<()> {
     for f in fits {
-        if let Some(dir) = &common.out {
+        if let Some(dir) = out {
             let stem = dir.join(format!("allan_{}", f.axis));
             fdavar::report::figure::write_allan(&allan_figure(f, &title(bag)), &stem)
                 .with_context(|| format!("cannot write the figure of {}", f.axis))?;
         }
-        if let Some(dir) = &common.csv {
+        if let Some(dir) = csv {
             for (name, table) in [("allan", allan_table(f)), ("spans", spans_table(f))] {
                 let path = dir.join(format!("{name}_{}.csv", f.axis));
                 std::fs::create_dir_all(dir)

@@ -132,6 +132,11 @@ fn davar_exit_codes() {
     assert!(figs.join("davar_surface_gyro_x.png").is_file() && figs.join("window_trace_gyro_x.svg").is_file());
     let blocked = blocked_dir(dir.path());
     expect_error(&["davar", file, "--rate", "100", "--every", "1000", "--out", &blocked], &["cannot draw", "gyro_x"]);
+    // The cause once, at the end of the line (it was printed twice: in the message and as its
+    // source).
+    let (_, stderr) = fdavar(&["davar", file, "--rate", "100", "--every", "1000", "--out", &blocked]);
+    assert_eq!(stderr.matches("Not a directory").count(), 1, "{stderr}");
+    assert!(stderr.trim_end().ends_with("Not a directory (os error 20)"), "{stderr}");
 }
 
 /// A path below a regular file: no directory can be created there.

@@ -133,7 +133,10 @@ pub enum ReportError {
         why: &'static str,
     },
     /// The output directory could not be created.
-    #[error("cannot create directory {path}: {source}")]
+    ///
+    /// The I/O error is the [`std::error::Error::source`], not in the message: a report of the
+    /// chain (anyhow's, the CLI's) printed it twice.
+    #[error("cannot create directory {path}")]
     CreateDir {
         /// The directory.
         path: PathBuf,

@@ -20,8 +20,9 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum ParamsError {
-    /// The file could not be read.
-    #[error("cannot read parameter file {path}: {source}")]
+    /// The file could not be read (the I/O error is the source, so that a report of the chain
+    /// says it once).
+    #[error("cannot read parameter file {path}")]
     Io {
         /// The file.
         path: PathBuf,

@@ -126,6 +126,8 @@ fn errors_are_clear_and_exit_1() {
             "{args:?}: {e}"
         );
         assert_eq!(e.lines().count(), 1, "{e}");
+        // A cause is said once (it was twice: in the message and as its source).
+        assert!(e.matches("(os error").count() <= 1, "{e}");
     }
     // A usage error (unknown estimator) is clap's: exit 2.
     assert_eq!(

@@ -55,8 +55,9 @@ pub const MAX_VALUES: usize = 1 << 26;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum TextError {
-    /// The file could not be opened or read.
-    #[error("cannot read {path}: {source}")]
+    /// The file could not be opened or read (the I/O error is the source, so that a report of
+    /// the chain says it once).
+    #[error("cannot read {path}")]
     Io {
         /// The file.
         path: PathBuf,

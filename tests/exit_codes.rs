@@ -38,6 +38,8 @@ fn expect(args: &[&str], code: i32, lines: &[(&str, &[&str])]) {
     assert_eq!(printed.len(), lines.len(), "fdavar {args:?}: stderr lines:\n{stderr}");
     for (line, (prefix, fragments)) in printed.iter().zip(lines) {
         assert!(line.starts_with(prefix), "fdavar {args:?}: {line:?} should start with {prefix:?}");
+        // A cause is said once: an error that is another's source is not also in its message.
+        assert!(line.matches("(os error").count() <= 1, "fdavar {args:?}: {line:?} repeats its cause");
         for f in *fragments {
             assert!(line.contains(f), "fdavar {args:?}: {line:?} should contain {f:?}");
         }

@@ -211,8 +211,9 @@ pub enum BagError {
         /// The topics the bag holds.
         topics: String,
     },
-    /// A message whose bytes do not decode as its type.
-    #[error("{path}: message on {topic} at log time {log_time_ns} ns: {source}")]
+    /// A message whose bytes do not decode as its type (the decoding failure is the source: a
+    /// report of the chain says it after this).
+    #[error("{path}: message on {topic} at log time {log_time_ns} ns")]
     Malformed {
         /// The file.
         path: PathBuf,
@@ -255,8 +256,9 @@ pub enum BagError {
         /// `failed` or `finished`.
         state: &'static str,
     },
-    /// An I/O failure on a file.
-    #[error("{path}: {source}")]
+    /// An I/O failure on a file (the I/O error is the source: a report of the chain says it after
+    /// the path).
+    #[error("{path}")]
     Io {
         /// The file.
         path: PathBuf,

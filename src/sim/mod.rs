@@ -52,8 +52,9 @@ pub enum SimError {
         /// What is wrong.
         reason: String,
     },
-    /// An effect's parameters are invalid.
-    #[error("spec field '{field}': {source}")]
+    /// An effect's parameters are invalid (the effect's error, naming the parameter, is the
+    /// source: a report of the chain says it after the field).
+    #[error("spec field '{field}'")]
     Param {
         /// Dotted path of the effect, e.g. `axes.gyro_x.sinusoid`.
         field: String,

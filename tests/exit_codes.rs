@@ -205,6 +205,9 @@ fn simulate_exit_codes() {
     expect(&["simulate", spec, "--out", out], 0, &[("fdavar: wrote 2000 IMU", &[out])]);
     // 1: the bag exists (no --force); a spec that names an unknown effect.
     expect_error(&["simulate", spec, "--out", out], &[out]);
+    // The path once: the bag's error names it, the command's context does not again.
+    let (_, stderr) = fdavar(&["simulate", spec, "--out", out]);
+    assert_eq!(stderr.matches(out).count(), 1, "{stderr}");
     let bad = dir.path().join("bad.yaml");
     std::fs::write(&bad, "rate_hz: 100\nduration_s: 20\nseed: 3\naxes:\n  gyro_x: { Bogus: { n: 1.0 } }\n").unwrap();
     expect_error(&["simulate", bad.to_str().unwrap(), "--out", out, "--force"], &["Bogus"]);

@@ -233,7 +233,7 @@ impl ResultsOut {
             .into());
         }
         let writer =
-            ResultsWriter::create(path).with_context(|| format!("cannot create {}", path.display()))?;
+            ResultsWriter::create(path).context("cannot create the results MCAP")?;
         Ok(Some(ResultsOut {
             writer,
             path: path.clone(),

@@ -29,8 +29,8 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let spec = SimSpec::from_yaml(&text).with_context(|| format!("in {}", args.spec.display()))?;
     let recording =
         simulate_columns(&spec).with_context(|| format!("in {}", args.spec.display()))?;
-    write_bag(&recording, &args.out, args.force)
-        .with_context(|| format!("writing bag {}", args.out.display()))?;
+    // The bag's errors name its path.
+    write_bag(&recording, &args.out, args.force).context("writing the bag")?;
     let truth_path = args.out.join("truth.json");
     let json = serde_json::to_string_pretty(&recording.truth).context("encoding truth.json")?;
     std::fs::write(&truth_path, json + "\n")

@@ -126,6 +126,7 @@ fn model(measured: &[MeasuredPoint], terms: &[AvarTerm]) -> ModelCurves {
         fit_error,
         whole_fit_error: None,
         spans: Vec::new(),
+        failing_spans: Vec::new(),
     }
 }
 
@@ -464,8 +465,9 @@ fn a_span_panel_shows_when_in_the_record_the_model_fails() {
         (1200, 1150),
         &["time of the span [s]", "span fit error (− quieter)", "fit error of a span", &whole],
     );
-    // Spans 3 and 4 overlap: one shaded range; span 10 another.
+    // Spans 3 and 4 overlap: one shaded range (as the fit merges them); span 10 another.
     fig.model.spans = spans(&[3, 4, 10]);
+    fig.model.failing_spans = vec![(30.0, 60.0), (100.0, 120.0)];
     let failing = write_allan(&fig, &dir.join("allan_spans_failing")).unwrap();
     let svg = |paths: &[PathBuf]| std::fs::read_to_string(&paths[1]).unwrap();
     assert_eq!(shaded(&svg(&failing)) - shaded(&svg(&passing)), 2);
@@ -490,6 +492,10 @@ fn bad_spans_are_named() {
     fig.model.spans[2].end_s = 0.0;
     let err = write_allan(&fig, &stem).unwrap_err();
     assert!(err.to_string().contains("model.spans.start_s/end_s"), "{err}");
+    fig.model.spans = spans(&[3]);
+    fig.model.failing_spans = vec![(50.0, 30.0)];
+    let err = write_allan(&fig, &stem).unwrap_err();
+    assert!(err.to_string().contains("model.failing_spans"), "{err}");
     let mut cmp = comparison();
     cmp.after.spans = spans(&[]);
     cmp.after.spans[0].fit_error = -1.0;
@@ -830,6 +836,7 @@ proptest! {
                 fit_error: 1.0,
                 whole_fit_error: z.first().copied(),
                 spans: z.windows(3).map(|w| SpanScore { start_s: w[0], end_s: w[1], fit_error: w[2], louder: w[0] < w[2] }).collect(),
+                failing_spans: z.windows(2).map(|w| (w[0], w[1])).collect(),
             },
             measured,
         };
@@ -874,6 +881,7 @@ proptest! {
                     .iter()
                     .map(|&(start, len, e)| SpanScore { start_s: start, end_s: start + len * start.abs().max(1.0), fit_error: e, louder: len < 0.5 })
                     .collect(),
+                failing_spans: spans.iter().filter(|s| s.2 > 3.0).map(|&(start, len, _)| (start, start + len * start.abs().max(1.0))).collect(),
             },
             measured,
         };

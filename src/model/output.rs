@@ -177,6 +177,7 @@ pub fn model_curves(fit: &FittedModel) -> ModelCurves {
                 louder: c.mean_z >= 0.0,
             })
             .collect(),
+        failing_spans: fit.failing_spans.iter().map(|s| (s.start_s, s.end_s)).collect(),
     }
 }
 

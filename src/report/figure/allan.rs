@@ -101,6 +101,10 @@ pub struct ModelCurves {
     /// step, a burst, a louder half); the z panel cannot show that, the span panel shows when.
     #[serde(default)]
     pub spans: Vec<SpanScore>,
+    /// Maximal time intervals \[start, end\] (seconds) covered by spans whose fit error exceeds
+    /// 3, as the fit merges them (`FittedModel::failing_spans`): shaded in the span panel.
+    #[serde(default)]
+    pub failing_spans: Vec<(f64, f64)>,
 }
 
 /// The Allan deviation figure of one axis and one model.
@@ -236,7 +240,8 @@ fn validate_model(which: &str, m: &ModelCurves) -> Result<(), ReportError> {
     let times: Vec<(f64, f64)> = m.spans.iter().map(|s| (s.start_s, s.end_s)).collect();
     check_intervals(FIGURE, &f("spans.start_s/end_s"), &times, false)?;
     let errors = m.spans.iter().map(|s| s.fit_error);
-    check_values(FIGURE, &f("spans.fit_error"), errors, Need::NonNegative, false)
+    check_values(FIGURE, &f("spans.fit_error"), errors, Need::NonNegative, false)?;
+    check_intervals(FIGURE, &f("failing_spans"), &m.failing_spans, false)
 }
 
 /// One column of an Allan figure: (heading, model, the measurement it was fitted to).
@@ -491,20 +496,21 @@ impl<'a> Panels<'a> {
             Circle::new((tau, symlog(z)), 3, colour.filled())
         }))?;
         match (span_area, &self.time_range) {
-            (Some(area), Some(times)) if !model.spans.is_empty() => self.draw_spans(&area, times, &model.spans),
+            (Some(area), Some(times)) if !model.spans.is_empty() => self.draw_spans(&area, times, model),
             _ => Ok(()),
         }
     }
 
     /// The span panel: each span's fit error (the RMS of its z) as a segment over the span's time,
     /// above the zero line for a span louder than the model and below it for a quieter one, on
-    /// the z panel's symmetric log scale; spans above 3 red and shaded.
+    /// the z panel's symmetric log scale; spans above 3 red, the model's failing spans shaded.
     fn draw_spans<DB: DrawingBackend>(
         &self,
         area: &DrawingArea<DB, Shift>,
         times: &std::ops::Range<f64>,
-        spans: &[SpanScore],
+        model: &ModelCurves,
     ) -> Drawn {
+        let spans = &model.spans;
         let b = symlog(self.span_bound);
         let mut chart = ChartBuilder::on(area)
             .margin(8)
@@ -518,17 +524,8 @@ impl<'a> Panels<'a> {
             .y_labels(0)
             .x_label_formatter(&plain_label)
             .draw()?;
-        // Failing spans merged where they overlap (spans overlap by half), shaded once.
-        let mut failing: Vec<&SpanScore> = spans.iter().filter(|s| s.fit_error > FAILING).collect();
-        failing.sort_by(|a, b| a.start_s.total_cmp(&b.start_s));
-        let mut merged: Vec<(f64, f64)> = Vec::new();
-        for s in failing {
-            match merged.last_mut() {
-                Some(last) if s.start_s <= last.1 => last.1 = last.1.max(s.end_s),
-                _ => merged.push((s.start_s, s.end_s)),
-            }
-        }
-        chart.draw_series(merged.iter().map(|&(lo, hi)| Rectangle::new([(lo, -b), (hi, b)], SHADE.filled())))?;
+        let shaded = model.failing_spans.iter();
+        chart.draw_series(shaded.map(|&(lo, hi)| Rectangle::new([(lo, -b), (hi, b)], SHADE.filled())))?;
         let (t0, t1) = (times.start, times.end);
         let ticks = z_ticks(self.span_bound);
         chart.draw_series(ticks.iter().map(|&t| PathElement::new(vec![(t0, t), (t1, t)], GRID.stroke_width(1))))?;

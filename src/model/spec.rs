@@ -116,19 +116,20 @@ impl ModelSpec {
         if names.iter().any(|n| n.is_empty()) {
             return Err(SpecError::EmptyTerm(s.to_string()));
         }
-        let mut spec = ModelSpec::default();
+        let spectral = |k: &&'static dyn EffectKind| k.domain() == Domain::Spectral;
+        let (mut spec, mut any_spectral) = (ModelSpec::default(), false);
         for name in names {
             let kind = lookup(registry, name).ok_or_else(|| SpecError::UnknownEffect {
                 name: name.to_string(),
                 known: known_names(registry),
             })?;
+            any_spectral |= spectral(&kind);
             spec = spec.with(kind.id());
         }
         if spec.effects.is_empty() {
             return Err(SpecError::Empty);
         }
-        let spectral = |k: &&'static dyn EffectKind| k.domain() == Domain::Spectral;
-        if !spec.kinds(registry)?.iter().any(spectral) {
+        if !any_spectral {
             let names = |want: bool| {
                 let kinds = registry.iter().filter(|k| spectral(k) == want);
                 kinds.map(|k| k.alias().unwrap_or(k.id())).collect::<Vec<_>>().join(", ")

@@ -1,7 +1,7 @@
 //! Benchmark of `fdavar_node` under a 2 kHz IMU: its CPU share and its receive-to-update latency.
 //!
 //! ```text
-//! cargo bench --bench node_load -- [RATE_HZ] [SECONDS] [DIAGNOSIS_PERIOD_S] [SINUSOID] [CPU_SHARE] [BATCH_MS]
+//! cargo bench --bench node_load -- [RATE_HZ] [SECONDS] [DIAGNOSIS_PERIOD_S] [SINUSOID] [CPU_SHARE] [BATCH_MS] [PEERS]
 //! ```
 //! (defaults 2000 Hz, 20 s, the node's default diagnosis period, 10 s (0 turns it off), no
 //! sinusoid, the node's default `diagnosis_cpu_share`, 0.005, and its default
@@ -21,6 +21,17 @@
 //!
 //! - the same CPU share per thread (/proc/PID/task/*/stat; threads that used none are left out).
 //!
+//! PEERS (default `bare`; `bare,rclpy`, `rclpy`, or `none` for the node alone) are subscribers measured in the same
+//! minutes as the node, on the same messages, so that the node's share can be read against what
+//! the host charges for a 2 kHz subscription at all (the host's speed moved the node's share by up
+//! to 2.5× between days, docs/performance.md):
+//! - `bare`: this bench re-run as a ros2-client subscriber that takes each message as DDS wakes it
+//!   and does nothing else: the floor of the DDS stack the node is built on;
+//! - `rclpy`: a plain rclpy subscriber (Fast DDS, from `FDAVAR_PYTHON` or `.venv`; left out, saying
+//!   so, when rclpy is not there) with `qos_profile_sensor_data`, counting in its callback: what a
+//!   ROS 2 user's own Python node pays for the same topic before doing anything with it. Not by
+//!   default: it takes most of a core, which changes what the others' wake-ups cost.
+//!
 //! `FDAVAR_NODE=PATH` runs that build of the node instead (interleaved A/B runs against a copy
 //! of the previous build).
 //!
@@ -28,11 +39,14 @@
 
 use fdavar::msgs::diagnostic_msgs::DiagnosticArray;
 use fdavar::msgs::sensor_msgs::Imu;
-use fdavar::ros::node::{peer_node, publish_on, spin_in_background, subscribe_on, wait_for_subscriber};
+use fdavar::ros::node::{peer_node, publish_on, spin_in_background, subscribe_on, wait_for_subscribers};
 use fdavar::signal::ImuSample;
-use ros2_client::qos::History;
+use ros2_client::qos::{History, Reliability};
 use ros2_client::QosProfile;
-use std::process::{Command, Stdio};
+use std::io::Read;
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 const DOMAIN: u16 = 90;
@@ -67,7 +81,104 @@ fn thread_ticks(pid: u32) -> Vec<(String, String, u64)> {
         .collect()
 }
 
+/// The `rclpy` peer: counts `/imu` in its callback (sensor-data QoS, as a ROS 2 user's IMU
+/// subscriber would); prints the count when its stdin closes.
+const RCLPY_PEER: &str = r#"
+import os, sys, threading, rclpy
+from rclpy.qos import qos_profile_sensor_data
+from sensor_msgs.msg import Imu
+rclpy.init()
+node = rclpy.create_node("fdavar_bench_rclpy")
+count = [0]
+def on_imu(msg):
+    count[0] += 1
+node.create_subscription(Imu, "/imu", on_imu, qos_profile_sensor_data)
+def report():
+    sys.stdin.read()
+    print(count[0], flush=True)
+    os._exit(0)
+threading.Thread(target=report, daemon=True).start()
+rclpy.spin(node)
+"#;
+
+/// The `bare` peer (this bench run with `--bare-subscriber`): the node's IMU subscription at its
+/// defaults (best effort, keep last 100), each message taken and decoded as DDS wakes the thread
+/// and only counted; prints the count when its stdin closes.
+fn bare_subscriber() {
+    let mut node = peer_node(DOMAIN, "fdavar_bench_bare").expect("node");
+    let qos = QosProfile::subscription_default()
+        .reliability(Reliability::BestEffort)
+        .history(History::KeepLast { depth: 100 });
+    let imu = subscribe_on::<Imu>(&mut node, "/imu", &qos).expect("subscription");
+    spin_in_background(&mut node).expect("spinner");
+    let count = Arc::new(AtomicU64::new(0));
+    let reported = Arc::clone(&count);
+    std::thread::spawn(move || {
+        let _ = std::io::copy(&mut std::io::stdin(), &mut std::io::sink());
+        println!("{}", reported.load(Ordering::Relaxed));
+        std::process::exit(0);
+    });
+    for read in futures::executor::block_on_stream(Box::pin(imu.async_stream())) {
+        if read.is_ok() {
+            count.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+}
+
+/// A subscriber measured beside the node (PEERS).
+struct Peer {
+    name: &'static str,
+    child: Child,
+    ticks0: u64,
+}
+
+/// Starts the peers named in `list` (`bare`, `rclpy`, comma-separated; `none`), saying why one is
+/// left out.
+fn start_peers(list: &str) -> Vec<Peer> {
+    let mut peers = Vec::new();
+    for name in list.split(',').filter(|n| !n.is_empty() && *n != "none") {
+        let mut cmd = match name {
+            "bare" => {
+                let mut c = Command::new(std::env::current_exe().expect("the bench's path"));
+                c.arg("--bare-subscriber");
+                c
+            }
+            "rclpy" => {
+                let python = std::env::var_os("FDAVAR_PYTHON").map(std::path::PathBuf::from).unwrap_or_else(
+                    || std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(".venv/bin/python"),
+                );
+                let has_rclpy = Command::new(&python)
+                    .args(["-c", "import rclpy, sensor_msgs.msg"])
+                    .stdout(Stdio::null())
+                    .stderr(Stdio::null())
+                    .status()
+                    .is_ok_and(|s| s.success());
+                if !has_rclpy {
+                    eprintln!("the rclpy peer is left out: {} cannot import rclpy (bash scripts/setup.sh)", python.display());
+                    continue;
+                }
+                let mut c = Command::new(python);
+                c.args(["-c", RCLPY_PEER]).env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp");
+                c
+            }
+            other => panic!("unknown peer {other:?}: bare, rclpy or none"),
+        };
+        let child = cmd
+            .env("ROS_DOMAIN_ID", DOMAIN.to_string())
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .spawn()
+            .unwrap_or_else(|e| panic!("start the {name} peer: {e}"));
+        let name = if name == "bare" { "bare ros2-client subscriber" } else { "rclpy subscriber" };
+        peers.push(Peer { name, child, ticks0: 0 });
+    }
+    peers
+}
+
 fn main() {
+    if std::env::args().any(|a| a == "--bare-subscriber") {
+        return bare_subscriber();
+    }
     let args: Vec<String> = std::env::args()
         .skip(1)
         .filter(|a| !a.starts_with("--"))
@@ -81,6 +192,7 @@ fn main() {
     let share_param = format!("diagnosis_cpu_share:={share:?}");
     let batch_ms: f64 = args.get(5).and_then(|a| a.parse().ok()).unwrap_or(0.8);
     let batch_param = format!("receive_batch_ms:={batch_ms:?}");
+    let mut peers = start_peers(args.get(6).map_or("bare", String::as_str));
 
     // FDAVAR_NODE runs another build (e.g. a copy of the previous one, for interleaved A/B runs).
     let binary =
@@ -116,8 +228,8 @@ fn main() {
         .expect("subscription");
     spin_in_background(&mut node).expect("spinner");
     assert!(
-        wait_for_subscriber(&imu, &node, Duration::from_secs(30)),
-        "fdavar_node never matched the IMU publisher"
+        wait_for_subscribers(&imu, &node, 1 + peers.len(), Duration::from_secs(30)),
+        "fdavar_node or a peer never matched the IMU publisher"
     );
     std::thread::sleep(Duration::from_millis(500));
 
@@ -125,6 +237,9 @@ fn main() {
     let n = (seconds * rate_hz) as u64;
     let ticks0 = cpu_ticks(pid).expect("read /proc");
     let threads0 = thread_ticks(pid);
+    for peer in &mut peers {
+        peer.ticks0 = cpu_ticks(peer.child.id()).expect("read /proc");
+    }
     let start = Instant::now();
     let mut x = 0x2545_f491_4f6c_dd1d_u64;
     for k in 0..n {
@@ -149,6 +264,22 @@ fn main() {
     let wall = start.elapsed().as_secs_f64();
     let ticks1 = cpu_ticks(pid).expect("read /proc");
     let cpu_s = (ticks1 - ticks0) as f64 / 100.0; // USER_HZ = 100 on Linux
+    let peer_lines: Vec<String> = peers
+        .iter_mut()
+        .map(|peer| {
+            let ticks = cpu_ticks(peer.child.id()).expect("read /proc") - peer.ticks0;
+            drop(peer.child.stdin.take()); // the peer prints its count and exits
+            let mut count = String::new();
+            let _ = peer.child.stdout.take().expect("piped").read_to_string(&mut count);
+            let _ = peer.child.wait();
+            format!(
+                "  {}, the same minutes: CPU {:.1} % of one core, counted {}",
+                peer.name,
+                ticks as f64 / wall,
+                count.trim()
+            )
+        })
+        .collect();
     let mut per_thread: Vec<(String, f64)> = thread_ticks(pid)
         .into_iter()
         .map(|(tid, name, ticks)| {
@@ -195,4 +326,7 @@ fn main() {
         .map(|(name, share)| format!("{name} {share:.2} %"))
         .collect();
     println!("  per thread: {} ({binary})", threads.join(", "));
+    for line in peer_lines {
+        println!("{line}");
+    }
 }

@@ -1729,7 +1729,7 @@ fn voluntary_switches(pid: u32) -> u64 {
 #[test]
 fn the_node_takes_a_fast_topic_in_batches_a_slow_one_per_message_and_parks_when_silent() {
     use fdavar::msgs::sensor_msgs::Imu;
-    use fdavar::ros::node::{peer_node, publish_on, spin_in_background, wait_for_subscriber};
+    use fdavar::ros::node::{peer_node, publish_on, spin_in_background, wait_for_subscribers};
     use ros2_client::QosProfile;
     const DOMAIN: u16 = 93;
     let node = start_node(DOMAIN, &["-p", "diagnosis_period_s:=0.0"]);
@@ -1740,7 +1740,7 @@ fn the_node_takes_a_fast_topic_in_batches_a_slow_one_per_message_and_parks_when_
         .history(ros2_client::qos::History::KeepLast { depth: 100 });
     let imu = publish_on::<Imu>(&mut peer, "/imu", &qos).expect("publisher");
     spin_in_background(&mut peer).expect("spinner");
-    assert!(wait_for_subscriber(&imu, &peer, Duration::from_secs(30)), "fdavar_node never matched");
+    assert!(wait_for_subscribers(&imu, &peer, 1, Duration::from_secs(30)), "fdavar_node never matched");
     std::thread::sleep(Duration::from_millis(500));
     let publish = |n: u64, rate_hz: f64| {
         let start = Instant::now();

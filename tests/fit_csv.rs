@@ -100,9 +100,17 @@ fn csv_holds_the_fits_curve_model_and_z() {
         assert_eq!(spans.len(), fit.spans.len(), "{}: one row per span", fit.axis);
         assert!(spans.len() >= 5, "{}: {} spans", fit.axis, spans.len());
         for (row, c) in spans.iter().zip(&fit.spans) {
-            assert_eq!(row.as_slice(), [c.span.start_s, c.span.end_s, c.fit_error, c.mean_z].as_slice(), "{}", fit.axis);
+            assert_eq!(
+                row.as_slice(),
+                [c.span.start_s, c.span.end_s, c.fit_error, c.mean_z, c.worst_tau, c.worst_ratio].as_slice(),
+                "{}",
+                fit.axis
+            );
             // A mean is never larger in size than the RMS of the same numbers.
             assert!(c.mean_z.abs() <= c.fit_error * (1.0 + 1e-12), "{}: {row:?}", fit.axis);
+            // The worst point is one of the span's τ on the fit's grid, its ratio a real one.
+            assert!(fit.points.iter().any(|p| p.tau == c.worst_tau), "{}: worst τ {} off the grid", fit.axis, c.worst_tau);
+            assert!(c.worst_ratio > 0.0 && c.worst_ratio.is_finite(), "{}: {row:?}", fit.axis);
         }
         // The whole-record fit_error is the RMS of the CSV's z.
         let zs: Vec<f64> = rows.iter().map(|r| r[7]).collect();

@@ -109,6 +109,18 @@ fn every_parameter_is_printed_with_its_unit_as_the_json_has_it() {
     assert_eq!(positive_exponent, None, "{text}");
 }
 
+/// The worst departure of a `failing in time` line (`worst +97.8 % at τ 0.03 s`, `worst ×0.24 at
+/// τ 0.03 s`): the ratio of Allan variances, and τ as written.
+fn worst_of(line: &str) -> (f64, &str) {
+    let worst = line.split(", worst ").nth(1).unwrap_or_else(|| panic!("no worst point: {line}"));
+    let (change, rest) = worst.split_once(" at τ ").unwrap();
+    let ratio = match change.strip_prefix('×') {
+        Some(factor) => factor.parse::<f64>().unwrap(),
+        None => 1.0 + change.trim_end_matches(" %").parse::<f64>().unwrap() / 100.0,
+    };
+    (ratio, rest.split_once(" s").unwrap().0)
+}
+
 #[test]
 fn a_model_failing_in_time_says_so_on_its_failing_tau_line() {
     let (text, json) = text_and_json(&["fit", SEED, "--model", "N,B,K"]);
@@ -128,7 +140,13 @@ fn a_model_failing_in_time_says_so_on_its_failing_tau_line() {
                 // N,B,K fitted to the whole record averages the quiet and the loud thirds: the
                 // spans over the burst lie above it, those before and after it below.
                 if let Some(line) = in_time_line {
-                    assert!(line.contains(" s, louder and quieter in turn"), "{axis}: {line}");
+                    assert!(line.contains(" s, louder and quieter in turn, worst "), "{axis}: {line}");
+                    // The worst departure is a quiet span at τ0, where the EDF is largest: its
+                    // variance σ² against the model's time average (σ² + 9σ² + σ²)/3, 3/11 = 0.27
+                    // (the seed's truth: σ triples for the middle third).
+                    let (ratio, tau) = worst_of(line);
+                    assert!((0.2..=0.36).contains(&ratio), "{axis}: {line}");
+                    assert_eq!(tau, "0.03", "{axis}: {line}");
                 }
             }
             (true, false) => assert_eq!(*failing, "  failing tau: none", "{axis}"),
@@ -139,12 +157,17 @@ fn a_model_failing_in_time_says_so_on_its_failing_tau_line() {
     assert!(in_time > 0, "{text}");
 }
 
-/// A failing interval says on which side of the model its spans lie: on bags/effects, gyro_z's
-/// spans all lie above N,B,K (its truth adds a Gauss–Markov bias and a g-sensitivity to the white
-/// noise, and the whole-record fit follows neither).
+/// A failing interval says on which side of the model its spans lie, and by how much at its worst
+/// point: on bags/effects, gyro_z's spans all lie above N,B,K (its truth adds a Gauss–Markov bias
+/// and a g-sensitivity to the white noise, and the whole-record fit follows neither).
 #[test]
 fn a_failing_interval_says_whether_the_noise_there_is_louder_or_quieter() {
     let (text, _) = text_and_json(&["fit", EFFECTS, "--model", "N,B,K", "--axis", "gyro_z"]);
     let line = block(&text, "gyro_z").into_iter().find(|l| l.starts_with("  failing in time: ")).unwrap();
-    assert!(line.starts_with("  failing in time: 0-120 s, louder than the model (whole record alone: fit_error "), "{line}");
+    assert!(line.starts_with("  failing in time: 0-120 s, louder than the model, worst "), "{line}");
+    // Its worst point: about twice the model's Allan variance (a Gauss–Markov process the
+    // whole-record N,B,K does not follow).
+    let (ratio, _) = worst_of(line);
+    assert!((1.5..3.0).contains(&ratio), "{line}");
+    assert!(line.contains(" s (whole record alone: fit_error "), "{line}");
 }

@@ -8,7 +8,7 @@
 use std::io::Write;
 
 use crate::model::diagnose::Diagnosis;
-use crate::model::fit::{FittedModel, ParamValue, FAILING_Z};
+use crate::model::fit::{FittedModel, ParamValue, SpanCheck, FAILING_Z};
 use crate::model::output::{measured_points, model_curves};
 use crate::report::table::{sig, Table};
 use crate::report::units::{Coefficient, Sensor};
@@ -225,34 +225,56 @@ pub fn allan_table(f: &FittedModel) -> Table {
 }
 
 /// The columns of [`spans_table`], in order.
-pub const SPANS_CSV_COLUMNS: [&str; 4] = ["start_s", "end_s", "fit_error", "mean_z"];
+pub const SPANS_CSV_COLUMNS: [&str; 6] = ["start_s", "end_s", "fit_error", "mean_z", "worst_tau_s", "worst_ratio"];
 
 /// The model checked on each span of the record, one row per span in time order
 /// (`fdavar fit|diagnose --csv DIR`, `spans_<axis>.csv`): the numbers of the figure's span panel.
 ///
 /// Columns ([`SPANS_CSV_COLUMNS`]): `start_s`, `end_s` the span, seconds from the first sample;
 /// `fit_error` the RMS of z over the span's own τ grid against the whole-record model; `mean_z`
-/// their mean (positive: the span louder than the model). Numbers in full, as [`allan_table`].
+/// their mean (positive: the span louder than the model); `worst_tau_s` and `worst_ratio` the τ of
+/// the span's point of largest |z| and its measured / model Allan variance
+/// ([`SpanCheck::worst_ratio`]). Numbers in full, as [`allan_table`].
 /// No rows when the record is too short to be cut into spans.
 pub fn spans_table(f: &FittedModel) -> Table {
     let mut t = Table::new(SPANS_CSV_COLUMNS);
     for c in &f.spans {
-        t.push([c.span.start_s, c.span.end_s, c.fit_error, c.mean_z].map(|v| v.to_string()));
+        t.push([c.span.start_s, c.span.end_s, c.fit_error, c.mean_z, c.worst_tau, c.worst_ratio].map(|v| v.to_string()));
     }
     t
 }
 
 /// Which side of the model the failing spans inside `interval` lie on, by the sign of their mean z
 /// (`SpanCheck::mean_z`): the noise there louder than the model, quieter, or both in turn (a model
-/// that averages two levels fits neither).
-fn side_of(f: &FittedModel, interval: &crate::model::fit::Span) -> &'static str {
-    let inside = f.spans.iter().filter(|c| {
-        c.fit_error > FAILING_Z && c.span.start_s >= interval.start_s && c.span.end_s <= interval.end_s
-    });
-    let (louder, quieter) = inside.fold((false, false), |(l, q), c| (l || c.mean_z >= 0.0, q || c.mean_z < 0.0));
-    match (louder, quieter) {
+/// that averages two levels fits neither); and the interval's most significant departure, in
+/// Allan variance at its τ (`SpanCheck::worst_ratio`): "louder than the model, worst ×3.5 at τ
+/// 20 s".
+fn side_of(f: &FittedModel, interval: &crate::model::fit::Span) -> String {
+    let inside: Vec<&SpanCheck> = f
+        .spans
+        .iter()
+        .filter(|c| c.fit_error > FAILING_Z && c.span.start_s >= interval.start_s && c.span.end_s <= interval.end_s)
+        .collect();
+    let (louder, quieter) = inside.iter().fold((false, false), |(l, q), c| (l || c.mean_z >= 0.0, q || c.mean_z < 0.0));
+    let side = match (louder, quieter) {
         (true, false) => "louder than the model",
         (false, true) => "quieter than the model",
         _ => "louder and quieter in turn",
+    };
+    // The failing span whose worst point departs most, by its ratio in log: ×2 and ×0.5 alike.
+    let worst = inside.iter().max_by(|a, b| a.worst_ratio.ln().abs().total_cmp(&b.worst_ratio.ln().abs()));
+    match worst {
+        Some(c) => format!("{side}, worst {} at τ {} s", change_text(c.worst_ratio), short(c.worst_tau, 3)),
+        None => side.to_string(),
+    }
+}
+
+/// A ratio of Allan variances as a change: `+4.5 %`, `-6.1 %`, or a factor (`×12`, `×0.31`)
+/// beyond a doubling or a halving.
+fn change_text(ratio: f64) -> String {
+    if (0.5..2.0).contains(&ratio) {
+        format!("{:+.1} %", 100.0 * (ratio - 1.0))
+    } else {
+        format!("×{}", short(ratio, 2))
     }
 }

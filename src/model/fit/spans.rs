@@ -45,6 +45,24 @@ pub struct SpanCheck {
     /// which the RMS cannot (0 without points).
     #[serde(default)]
     pub mean_z: f64,
+    /// The span's most significant departure from the model: the τ of its point with the
+    /// largest |z|, in seconds, and that point's measured / model Allan variance (1.37: 37 %
+    /// louder). 0 and 1 without points.
+    ///
+    /// Why beside z: z says whether a departure is resolved, not whether it matters. An hour at
+    /// 100 Hz resolves a span's short-τ Allan variance to about 1 %, so a real sensor whose noise
+    /// drifts by a few percent fails the span check, where a burst or a step departs by tens of
+    /// percent or more.
+    #[serde(default)]
+    pub worst_tau: f64,
+    /// See [`SpanCheck::worst_tau`].
+    #[serde(default = "as_the_model")]
+    pub worst_ratio: f64,
+}
+
+/// [`SpanCheck::worst_ratio`] of a span without points, and of checks written before it existed.
+fn as_the_model() -> f64 {
+    1.0
 }
 
 /// The Allan variance of one span of the cleaned record.
@@ -106,7 +124,8 @@ pub(super) fn measure_with_spans(
 /// EDF of at least [`MIN_SPAN_EDF`]), with the EDF of the model's noise mix for the span's length.
 /// Returns the span's RMS and its z values (pooled by the caller).
 pub(super) fn check_span(measure: &SpanMeasure, fit: &CurveFit) -> (SpanCheck, Vec<f64>) {
-    let z: Vec<f64> = measure
+    // Each counted point's z, τ and measured / model.
+    let (z, departures): (Vec<f64>, Vec<(f64, f64)>) = measure
         .points
         .iter()
         .filter(|p| p.avar.is_finite() && p.avar > 0.0)
@@ -120,16 +139,23 @@ pub(super) fn check_span(measure: &SpanMeasure, fit: &CurveFit) -> (SpanCheck, V
                 .collect();
             let model = fit.points[i].model;
             let edf = edf_for_mix(&parts, p.terms + 2 * p.m, p.m);
-            (edf >= MIN_SPAN_EDF)
-                .then(|| z_scores(&[p.avar], &[model], &[edf]))?
-                .pop()
+            let z = (edf >= MIN_SPAN_EDF).then(|| z_scores(&[p.avar], &[model], &[edf]))?.pop()?;
+            Some((z, (p.tau, p.avar / model)))
         })
-        .collect();
+        .unzip();
     let mean_z = if z.is_empty() { 0.0 } else { z.iter().sum::<f64>() / z.len() as f64 };
+    let (worst_tau, worst_ratio) = z
+        .iter()
+        .zip(&departures)
+        .filter(|(_, (_, ratio))| ratio.is_finite())
+        .max_by(|a, b| a.0.abs().total_cmp(&b.0.abs()))
+        .map_or((0.0, 1.0), |(_, &d)| d);
     let check = SpanCheck {
         span: measure.span,
         fit_error: rms(&z),
         mean_z,
+        worst_tau,
+        worst_ratio,
     };
     (check, z)
 }
@@ -155,7 +181,7 @@ mod tests {
     use crate::allan::oavar_rate;
 
     fn check(start_s: f64, end_s: f64, fit_error: f64) -> SpanCheck {
-        SpanCheck { span: Span { start_s, end_s }, fit_error, mean_z: fit_error }
+        SpanCheck { span: Span { start_s, end_s }, fit_error, mean_z: fit_error, worst_tau: 0.0, worst_ratio: 1.0 }
     }
 
     #[test]
@@ -262,6 +288,19 @@ mod tests {
             points: measure.points.iter().map(|p| AllanPoint { avar: 0.9, ..*p }).collect(),
             ..measure
         };
-        assert!((check_span(&quieter, &fit).0.mean_z + checked.mean_z).abs() < 1e-9 * checked.mean_z);
+        let quieter = check_span(&quieter, &fit).0;
+        assert!((quieter.mean_z + checked.mean_z).abs() < 1e-9 * checked.mean_z);
+        // The worst point is the one of largest |z| among those counted (the larger EDF, with the
+        // same ratio), with its ratio; the points left out (m = 4, 8) do not count.
+        let worst_tau = if want[0] >= want[1] { 1.0 } else { 2.0 };
+        assert_eq!((checked.worst_tau, checked.worst_ratio), (worst_tau, 1.1));
+        assert_eq!((quieter.worst_tau, quieter.worst_ratio), (worst_tau, 0.9));
+        let uneven = SpanMeasure {
+            points: vec![AllanPoint { avar: 1.21, ..point(1, 4000) }, point(2, 3000), AllanPoint { avar: 50.0, ..point(4, 10) }],
+            ..measure
+        };
+        assert_eq!((check_span(&uneven, &fit).0.worst_tau, check_span(&uneven, &fit).0.worst_ratio), (1.0, 1.21));
+        let empty = SpanMeasure { points: vec![point(4, 10)], ..measure };
+        assert_eq!((check_span(&empty, &fit).0.worst_tau, check_span(&empty, &fit).0.worst_ratio), (0.0, 1.0));
     }
 }

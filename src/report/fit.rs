@@ -246,9 +246,9 @@ pub fn spans_table(f: &FittedModel) -> Table {
 
 /// Which side of the model the failing spans inside `interval` lie on, by the sign of their mean z
 /// (`SpanCheck::mean_z`): the noise there louder than the model, quieter, or both in turn (a model
-/// that averages two levels fits neither); and the interval's most significant departure, in
-/// Allan variance at its τ (`SpanCheck::worst_ratio`): "louder than the model, worst ×3.5 at τ
-/// 20 s".
+/// that averages two levels fits neither); and the largest of its failing spans' worst points
+/// (each span's point of largest |z|, `SpanCheck::worst_ratio`), as a change of Allan variance at
+/// its τ: "louder than the model, worst ×3.5 at τ 20 s".
 fn side_of(f: &FittedModel, interval: &crate::model::fit::Span) -> String {
     let inside: Vec<&SpanCheck> = f
         .spans

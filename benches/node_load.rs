@@ -27,8 +27,8 @@
 //! to 2.5× between days, docs/performance.md):
 //! - `bare`: this bench re-run as a ros2-client subscriber that takes each message as DDS wakes it
 //!   and does nothing else: the floor of the DDS stack the node is built on;
-//! - `rclpy`: a plain rclpy subscriber (Fast DDS, from `FDAVAR_PYTHON` or `.venv`; left out, saying
-//!   so, when rclpy is not there) with `qos_profile_sensor_data`, counting in its callback: what a
+//! - `rclpy`: a plain rclpy subscriber (Fast DDS, the Python the tests use, `FDAVAR_PYTHON` or
+//!   `.venv`; left out, saying so, when rclpy is not there) with `qos_profile_sensor_data`, counting in its callback: what a
 //!   ROS 2 user's own Python node pays for the same topic before doing anything with it. Not by
 //!   default: it takes most of a core, which changes what the others' wake-ups cost.
 //!
@@ -36,6 +36,9 @@
 //! of the previous build).
 //!
 //! Not a test: numbers depend on the machine; nothing is asserted.
+
+#[path = "../tests/common/mod.rs"]
+mod common;
 
 use fdavar::msgs::diagnostic_msgs::DiagnosticArray;
 use fdavar::msgs::sensor_msgs::Imu;
@@ -144,19 +147,10 @@ fn start_peers(list: &str) -> Vec<Peer> {
                 c
             }
             "rclpy" => {
-                let python = std::env::var_os("FDAVAR_PYTHON").map(std::path::PathBuf::from).unwrap_or_else(
-                    || std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(".venv/bin/python"),
-                );
-                let has_rclpy = Command::new(&python)
-                    .args(["-c", "import rclpy, sensor_msgs.msg"])
-                    .stdout(Stdio::null())
-                    .stderr(Stdio::null())
-                    .status()
-                    .is_ok_and(|s| s.success());
-                if !has_rclpy {
-                    eprintln!("the rclpy peer is left out: {} cannot import rclpy (bash scripts/setup.sh)", python.display());
+                // Without rclpy the peer is left out, python_with saying why.
+                let Some(python) = common::python_with("import rclpy, sensor_msgs.msg", ".ci/python-ros.txt") else {
                     continue;
-                }
+                };
                 let mut c = Command::new(python);
                 c.args(["-c", RCLPY_PEER]).env("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp");
                 c

@@ -16,6 +16,9 @@
 //! allantools does OADEV alone) and an FNV-1a 64 checksum of fdavar's JSON, the same on every
 //! repeat (checked) and the same across builds that change no result.
 
+#[path = "../tests/common/mod.rs"]
+mod common;
+
 use fdavar::allan::TauGrid;
 use fdavar::bag::{BagMessage, BagReader};
 use fdavar::signal::Axis;
@@ -69,12 +72,12 @@ fn main() {
 
     let factors = TauGrid::default().factors(n / 3);
     let taus: Vec<String> = factors.iter().map(|m| format!("{:?}", *m as f64 / RATE_HZ)).collect();
-    let python = std::env::var_os("FDAVAR_PYTHON")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(".venv/bin/python"));
+    // Without allantools the baseline is left out, python_with saying why.
+    let python = common::python_with("import numpy, allantools", ".ci/python-allan.txt");
     let mut theirs = Vec::new();
     for _ in 0..repeats {
-        let out = Command::new(&python)
+        let Some(python) = &python else { break };
+        let out = Command::new(python)
             .args(["-c", PYTHON, raw.to_str().unwrap(), &n.to_string(), &RATE_HZ.to_string(), &taus.join(",")])
             .output();
         match out {

@@ -35,7 +35,7 @@
 //! report every recorded second; the RSS is this process's. No DDS, no bag: the memory curve of
 //! the analysis alone, in a few minutes.
 //!
-//! Flat means, past 6 h (the whole-run record's cap of 2²¹ samples per axis, 5.8 h at 100 Hz):
+//! Flat means, past 6 h (the whole-run record's cap of 2²⁰ samples per axis is reached at 2.9 h at 100 Hz):
 //! the RSS between diagnosis rounds does not grow (the median of the per-second RSS samples of the
 //! last third of the run exceeds that of the first third by less than 5 %), and no round needs
 //! more memory than the rounds of the first third did (the kernel's high-water mark VmHWM at the
@@ -102,7 +102,7 @@ impl Curve {
     /// 5 %, and so does the high-water mark from the end of the first third to the end (no round
     /// needs more than the first third's did). Why not the largest sample: a round's largest
     /// buffers live for well under a second and their size follows the record's length at that
-    /// round (2²⁰ to 2²¹ values, then halved), so which of the once-a-second samples fall on a
+    /// round (2¹⁹ to 2²⁰ values, then halved), so which of the once-a-second samples fall on a
     /// peak is luck (measured at 32c5f88: largest sample 243.8 MB in 6–12 h, 280.0 MB in
     /// 18–24 h, medians 129.8 and 132.8 MB). The largest sample is still printed.
     fn verdict(&self, total: u64) -> bool {
@@ -209,6 +209,7 @@ fn in_process(hours: f64, period_s: f64) -> bool {
         config,
         ModelSpec::parse("N,B,K").unwrap(),
         Default::default(),
+        fdavar::model::record::RecordBuilder::DEFAULT_MAX_SAMPLES,
     )
     .unwrap();
     // Rounds paced by recording time alone (no CPU budget), as the soak has always run them.
@@ -572,7 +573,7 @@ fn copy_first(bag: &Path, out: &Path, n: usize) {
 /// axis ±1e300, 5 messages sent twice (duplicated stamps), 3 with a zero stamp. At 40 % of the
 /// messages the stamps go 30 s back for the rest of the run (a driver restarted on an older
 /// clock: 50 backwards stamps, then a re-anchor); at 70 % they jump 13 h forward (more than the
-/// 2²¹ periods of the longest gap laid out: a re-anchor). Log times, which pace the replay, are
+/// 2²⁰ periods of the longest gap laid out: a re-anchor). Log times, which pace the replay, are
 /// unchanged.
 fn inject_faults(bag: &Path, out: &Path, total: u64) -> String {
     let reader = fdavar::bag::BagReader::open(bag).expect("open bag");

@@ -19,7 +19,7 @@
 //! A live caller can lend the record to a diagnosis running on another thread ([`Analysis::lend`]):
 //! rows go on meanwhile, and the samples the record missed are pushed into it, in order, when it
 //! comes back ([`Analysis::give_back`]). Why move the record rather than copy it: a copy is up to
-//! 2²¹ values per axis (about 100 MB for six axes) to take while samples wait, where a move costs
+//! 2²⁰ values per axis (about 50 MB for six axes) to take while samples wait, where a move costs
 //! nothing and the samples that arrive during a diagnosis (a few thousand at 2 kHz) replay in
 //! about a millisecond; the diagnosis reads the very record [`Analysis::diagnose`] would, so the
 //! answers are the same, bit for bit.
@@ -414,7 +414,7 @@ pub fn on_threads<T: Sync, R: Send>(items: &[T], threads: usize, f: impl Fn(&T) 
 /// Gives a diagnosis's memory back when it ends: every buffer of 128 kB or more gets a mapping of
 /// its own, returned to the kernel when freed, and the heap's free top is trimmed past 128 kB.
 ///
-/// Why: a whole-run diagnosis works on series as long as the record (up to 2²¹ values per axis,
+/// Why: a whole-run diagnosis works on series as long as the record (up to 2²⁰ values per axis,
 /// [`crate::model::record`]), so most of a round's memory is in series-sized buffers whose size
 /// follows the record's length. glibc's defaults are the same two 128 kB thresholds, but dynamic:
 /// the first series-sized buffer freed raises the mapping threshold to its size (up to 32 MB), and

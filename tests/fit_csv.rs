@@ -137,3 +137,39 @@ fn diagnose_csv_equals_fit_csv() {
     assert_eq!(read("fit", "spans_gyro_z.csv"), read("diagnose", "spans_gyro_z.csv"));
     assert!(read("fit", "spans_gyro_z.csv").lines().count() > 5);
 }
+
+/// `--record-cap`: a recording longer than the default cap (2²⁰ values per axis) is fitted from
+/// τ = 2τ0 on, since its record was halved; a cap that holds it keeps τ0. Values outside
+/// [2²⁰, 2²⁴] are refused with the range.
+#[test]
+fn record_cap_decides_whether_a_long_recording_keeps_its_shortest_tau() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/bags/specs/clean.yaml")).unwrap();
+    // 1 050 000 samples at 100 Hz: 1 424 more than 2²⁰.
+    let spec = spec.replace("duration_s: 120", "duration_s: 10500");
+    assert!(spec.contains("duration_s: 10500"));
+    std::fs::write(dir.path().join("long.yaml"), spec).unwrap();
+    let bag = dir.path().join("long");
+    let fdavar = || Command::new(env!("CARGO_BIN_EXE_fdavar"));
+    let out = fdavar().arg("simulate").arg(dir.path().join("long.yaml")).arg("--out").arg(&bag).output().unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let shortest_tau = |cap: Option<&str>| {
+        let csv = dir.path().join(format!("csv_{}", cap.unwrap_or("default")));
+        let mut cmd = fdavar();
+        cmd.arg("fit").arg(&bag).args(["--model", "N,B,K", "--axis", "gyro_x", "--csv"]).arg(&csv);
+        if let Some(c) = cap {
+            cmd.args(["--record-cap", c]);
+        }
+        let out = cmd.output().unwrap();
+        assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+        read_csv(&csv.join("allan_gyro_x.csv"))[0][0]
+    };
+    assert!((shortest_tau(None) - 0.02).abs() < 1e-9, "{}", shortest_tau(None));
+    assert!((shortest_tau(Some("2097152")) - 0.01).abs() < 1e-9);
+    for bad in ["1048575", "16777217", "lots"] {
+        let out = fdavar().arg("diagnose").arg(CLEAN).args(["--record-cap", bad]).output().unwrap();
+        assert_eq!(out.status.code(), Some(2), "{bad}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("--record-cap") && err.contains("[1048576, 16777216]"), "{bad}: {err}");
+    }
+}

@@ -434,6 +434,7 @@ fn in_process_monitor(
     diagnosis_period_s: f64,
     gyro_x: Option<&str>,
 ) -> fdavar::ros::monitor::Monitor {
+    use fdavar::model::record::RecordBuilder;
     use fdavar::model::ModelSpec;
     use fdavar::ros::engine::AnalysisEngine;
     use fdavar::ros::monitor::{Monitor, MonitorSettings};
@@ -441,7 +442,8 @@ fn in_process_monitor(
     let mut overrides: [Option<ModelSpec>; 6] = Default::default();
     overrides[0] = gyro_x.map(|m| ModelSpec::parse(m).unwrap());
     let engine =
-        AnalysisEngine::new(config, ModelSpec::parse("N,B,K").unwrap(), overrides).unwrap();
+        AnalysisEngine::new(config, ModelSpec::parse("N,B,K").unwrap(), overrides, RecordBuilder::DEFAULT_MAX_SAMPLES)
+            .unwrap();
     // Rounds paced by sample time alone (no CPU budget): the samples come faster than real time.
     let settings = MonitorSettings {
         diagnosis_period_s,

@@ -88,7 +88,7 @@ pub fn identify(x: &[f64], m: usize, d_max: u32, terms: usize) -> Option<(i32, N
 fn lag1_acf_alpha<I: Iterator<Item = f64>>(decimated: impl Fn() -> I, d_max: u32) -> Option<i32> {
     // No buffer: every pass recomputes the values from the phase, with the same operations in
     // the same order as differencing a copy in place would (the same bits). A whole-run record's
-    // copy would be as long as the record (16.8 MB at 2²¹ samples).
+    // copy would be as long as the record (8.4 MB at 2²⁰ samples).
     let trend = linear_trend(|| first_differences(decimated()))?;
     lag1_acf_alpha_from(decimated, trend, 0, d_max)
 }

@@ -11,7 +11,14 @@
 //! means: the Allan variance at τ = m·τ0 of block means of 2 samples is the overlapping estimator at
 //! stride 2 — the same expectation for every τ ≥ 2τ0, a little less EDF — so the long-τ end the
 //! whole-run fit needs is kept, and only the shortest τ is given up, once the record is long. The
-//! default keeps 2²¹ samples per axis (5.8 h at 100 Hz, 1.5 h at 400 Hz) at full rate. No I/O here.
+//! default keeps 2²⁰ samples per axis (2.9 h at 100 Hz, 44 min at 400 Hz) at full rate.
+//!
+//! Why 2²⁰ and not more: a diagnosis in flight holds about six buffers as long as the record, and
+//! the record itself is six, so the peak follows the record's length; just short of a halving,
+//! `fdavar analyze --jobs 2` of 2²¹ values per axis (5.7 h at 100 Hz) peaked at 310 MB, of 2²⁰
+//! (2.9 h) at 169 MB, and a day at 99 MB instead of 170 MB (2026-11-28, bags/specs/clean.yaml,
+//! `/usr/bin/time`). A static recording of 10 000 s at 100 Hz (the ADIS16405's) stays whole. No
+//! I/O here.
 //!
 //! A block's mean is that of its valid samples, invalid only when none is: a NaN poisoned its block
 //! before (2026-11-25), so a day at 100 Hz that lost 1 % of its messages one by one (three
@@ -139,8 +146,14 @@ pub struct RecordBuilder {
 }
 
 impl RecordBuilder {
-    /// Samples per axis kept at full rate before the record is halved (2²¹: 16 MB per axis).
+    /// Samples per axis kept at full rate before the record is halved (2²⁰: 8 MB per axis).
     pub const DEFAULT_MAX_SAMPLES: usize = crate::signal::MAX_GAP_SAMPLES as usize;
+
+    /// The largest cap a user may ask for (`fdavar … --record-cap`, the node's `record_cap`):
+    /// 2²⁴ values per axis, 46 h at 100 Hz in 805 MB for six axes before a diagnosis's buffers.
+    /// Why no smaller cap than the default: a gap of up to [`crate::signal::MAX_GAP_SAMPLES`]
+    /// periods is laid out in the record, which must be able to hold it.
+    pub const LARGEST_MAX_SAMPLES: usize = 1 << 24;
 
     /// A builder with period `tau0` (seconds; `None`: learned from the first stamps) that keeps
     /// at most `max_samples` (at least 1024) values per axis.
@@ -438,7 +451,7 @@ mod tests {
             .collect();
         let r = Recording::from_samples(&imu, &[]).unwrap();
         assert_eq!((r.irregularities.reanchors, r.irregularities.gaps), (0, 1));
-        // The 2²¹st sample fills the record, which is halved to 2²⁰; the last 19 follow in
+        // The 2²⁰th sample fills the record, which is halved to 2¹⁹; the last 19 follow in
         // pairs (9, and one pending).
         assert_eq!(r.len(), (crate::signal::MAX_GAP_SAMPLES as usize) / 2 + 9);
         assert!((r.tau0 - 0.02).abs() < 1e-12);

@@ -1660,7 +1660,7 @@ mod tests {
     #[test]
     fn a_fast_length_is_transformed_without_scratch() {
         // The lengths rustfft leaves to Bluestein's algorithm (see is_fast) are not fast; every
-        // fast length with 13² in it up to the record's cap of 2²¹ samples transforms with no
+        // fast length with 13² in it up to twice the record's cap of 2²⁰ samples transforms with no
         // scratch buffer (the others measured so, see is_fast).
         for m in [169, 4 * 169, 13usize.pow(4), 2 * 13usize.pow(5), 3 * 13usize.pow(5)] {
             assert!(!is_fast(m), "{m}");

@@ -53,7 +53,32 @@ pub fn default_engine(
                 Some(engine::model_spec(&spec).map_err(|e| invalid(&name, e))?);
         }
     }
-    let engine = engine::AnalysisEngine::new(config.davar_config.clone(), global, overrides)
+    let engine = engine::AnalysisEngine::new(config.davar_config.clone(), global, overrides, record_cap(config))
         .map_err(|e| invalid("(DAVAR settings)", e.to_string()))?;
     Ok(Some(Box::new(engine)))
+}
+
+/// The `record_cap` parameter: values per axis the whole-run record keeps before halving (as
+/// `fdavar diagnose --record-cap`). Validated with the other parameters, so always in range.
+pub fn record_cap(config: &NodeConfig) -> usize {
+    match config.params.get("record_cap") {
+        Some(ros2_client::ParameterValue::Integer(v)) => usize::try_from(*v).unwrap_or(usize::MAX),
+        _ => crate::model::record::RecordBuilder::DEFAULT_MAX_SAMPLES,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn record_cap_is_read_from_the_parameters_and_checked_against_its_range() {
+        let cap = |args: &[&str]| NodeConfig::from_args(args.iter().copied(), None).map(|(c, _)| record_cap(&c));
+        assert_eq!(cap(&["fdavar_node"]).unwrap(), 1 << 20);
+        assert_eq!(cap(&["fdavar_node", "--ros-args", "-p", "record_cap:=2097152"]).unwrap(), 1 << 21);
+        for bad in ["1048575", "16777217", "1.5e6"] {
+            let e = cap(&["fdavar_node", "--ros-args", "-p", &format!("record_cap:={bad}")]).unwrap_err();
+            assert!(e.to_string().contains("record_cap"), "{bad}: {e}");
+        }
+    }
 }

@@ -13,6 +13,7 @@
 
 use super::args::yaml_to_param;
 use crate::params::ParamValue as DavarValue;
+use crate::model::record::RecordBuilder;
 use crate::pipeline::DavarConfig;
 use ros2_client::ParameterValue;
 use std::collections::BTreeMap;
@@ -195,11 +196,22 @@ pub static NODE_PARAMS: &[ParamSpec] = &[
         name: "diagnosis_cpu_share",
         doc: "Largest share of one core the whole-run diagnosis may take: the diagnosis of an \
               axis that took C seconds starts the next no sooner than C/share seconds after its \
-              own start (a diagnosis costs in proportion to the record: about 0.7 s per axis once \
-              it holds 2^21 values). 1 = only diagnosis_period_s paces the rounds. (0, 1].",
+              own start (a diagnosis costs in proportion to the record: about 0.3 s per axis once \
+              it holds 2^20 values). 1 = only diagnosis_period_s paces the rounds. (0, 1].",
         default: || ParameterValue::Double(0.005),
         validate: |v| positive_double(v, 1.0),
         live: true,
+    },
+    ParamSpec {
+        name: "record_cap",
+        doc: "Values per axis the whole-run record keeps before it averages neighbouring pairs \
+              and its period doubles: 2^20 = 2.9 h at 100 Hz, 8.7 min at 2 kHz. Larger keeps the \
+              shortest tau of a long run (a low-pass near Nyquist, quantization) for about 160 \
+              bytes per value at a round's peak, and each round costs in proportion; the same as \
+              `fdavar diagnose --record-cap`. [2^20, 2^24].",
+        default: || ParameterValue::Integer(RecordBuilder::DEFAULT_MAX_SAMPLES as i64),
+        validate: |v| int_in(v, RecordBuilder::DEFAULT_MAX_SAMPLES as i64, RecordBuilder::LARGEST_MAX_SAMPLES as i64),
+        live: false,
     },
     ParamSpec {
         name: "dump_json",
@@ -531,6 +543,8 @@ mod tests {
         assert!(e.to_string().contains("publish_rate_hz"), "{e}");
         let e = validate("queue_size", &ParameterValue::Integer(0)).unwrap_err();
         assert!(e.to_string().contains("[1, 1000000], got 0"), "{e}");
+        let e = validate("record_cap", &ParameterValue::Integer(1 << 19)).unwrap_err();
+        assert!(e.to_string().contains("[1048576, 16777216], got 524288"), "{e}");
         let e = validate("no_such", &ParameterValue::Integer(0)).unwrap_err();
         assert!(e.to_string().contains("no_such"), "{e}");
         assert!(validate("model", &ParameterValue::String("N,B,K,sinusoid".into())).is_ok());

@@ -145,7 +145,7 @@ pub struct TemperatureSample {
 /// for the rest of the run (issue 13). The 49 samples dropped while deciding become a gap.
 pub const REANCHOR_AFTER: u32 = 50;
 
-/// The longest gap laid out as missing samples, in periods (2²¹: 5.8 h at 100 Hz, 17 min at
+/// The longest gap laid out as missing samples, in periods (2²⁰: 2.9 h at 100 Hz, 8.7 min at
 /// 2 kHz). A stamp further ahead is a clock that jumped forward (a driver restarted with another
 /// time base, a wrong epoch): it becomes the new reference like a clock that went back
 /// ([`StampClass::Reanchored`], counted in `reanchors`), and the samples after it follow on.
@@ -154,7 +154,7 @@ pub const REANCHOR_AFTER: u32 = 50;
 /// ([`crate::model::record::RecordBuilder::DEFAULT_MAX_SAMPLES`]); a longer gap cannot be laid
 /// out in it, and before, such a jump stopped the whole-run record for the rest of the run
 /// ("a gap … is longer than the recording allows", issue 13).
-pub const MAX_GAP_SAMPLES: u64 = 1 << 21;
+pub const MAX_GAP_SAMPLES: u64 = 1 << 20;
 
 /// The largest magnitude a rate sample can have, rad/s or m/s²; beyond it a value is not a
 /// measurement and is treated as missing, like NaN or ±∞.

@@ -12,7 +12,7 @@
 //! pipelines' rings and at most [`CHUNKS_IN_FLIGHT`] chunks per worker.
 
 use crate::diagnose::{diagnose_all, write_diagnosis, write_diagnosis_files};
-use crate::fit::{load_with, outcome, print_json, Selection};
+use crate::fit::{load_with, outcome, print_json, RecordCap, Selection, Source};
 use crate::{Outcome, UsageError};
 use anyhow::Context;
 use fdavar::model::output::{AxisReport, Report};
@@ -55,6 +55,8 @@ pub struct Args {
     pub params: Option<PathBuf>,
     #[command(flatten)]
     pub selection: Selection,
+    #[command(flatten)]
+    pub record: RecordCap,
     /// Print one JSON object: `davar` (rows' summary, events, irregularities) and `axes` (the
     /// object `fdavar diagnose --json` prints, member for member).
     #[arg(long)]
@@ -171,7 +173,11 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
             }
             Ok(())
         };
-        let mut analysis = load_with(&args.bag, &args.model, args.selection.topic.as_deref(), None, None, &mut |s| {
+        let source = Source {
+            record_cap: args.record.values,
+            ..Source::whole(&args.bag, &args.model, args.selection.topic.as_deref())
+        };
+        let mut analysis = load_with(&source, None, &mut |s| {
             chunk.push(*s);
             if chunk.len() == CHUNK {
                 send(&mut chunk)?;

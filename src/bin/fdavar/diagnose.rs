@@ -2,7 +2,7 @@
 //! physical effect the noise model misses, per axis, best first. Several recordings (or a
 //! directory of them): one summary table ([`crate::fleet`]).
 
-use crate::fit::{load, outcome, print_json, title, write_files, write_fit, Common, ResultsOut, FAILING_FIT_ERROR};
+use crate::fit::{load, Source, outcome, print_json, title, write_files, write_fit, Common, ResultsOut, FAILING_FIT_ERROR};
 use crate::Outcome;
 use anyhow::Context;
 use fdavar::analysis::Analysis;
@@ -65,7 +65,7 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
         return crate::fleet::run(args, &bags, jobs);
     };
     let mut results = ResultsOut::create(&args.common)?;
-    let mut analysis = load(bag, &args.model, args.common.selection.topic.as_deref(), args.common.first, results.as_mut())?;
+    let mut analysis = load(&Source::of(bag, &args.model, &args.common), results.as_mut())?;
     let diagnoses = diagnose_all(&mut analysis, &args.common.selection.axes(), jobs)?;
     if let Some(results) = results {
         let (messages, until_s) = (analysis.messages(), analysis.duration_s().unwrap_or(0.0));

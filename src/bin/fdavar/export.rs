@@ -100,7 +100,8 @@ fn from_bag(args: &Args) -> anyhow::Result<(ImuNoise, Outcome)> {
         .imu_topic(args.topic.as_deref())?
         .name
         .clone();
-    let mut analysis = crate::fit::load(&args.input, std::slice::from_ref(&args.model), Some(&topic), None, None)?;
+    let model = std::slice::from_ref(&args.model);
+    let mut analysis = crate::fit::load(&crate::fit::Source::whole(&args.input, model, Some(&topic)), None)?;
     let mut fits = Vec::new();
     for axis in Axis::ALL {
         fits.push(analysis.fit(axis).with_context(|| format!("cannot fit {axis}"))?);

@@ -11,6 +11,7 @@ use fdavar::analysis::{Analysis, AnalysisConfig};
 use fdavar::bag::{BagMessage, BagReader};
 use fdavar::model::output::{allan_figure, AxisReport, Report};
 use fdavar::model::spec::axis_models;
+use fdavar::model::record::RecordBuilder;
 use fdavar::model::{FittedModel, ModelSpec};
 use fdavar::pipeline::{AxisRow, DavarConfig, SigmaRefMode};
 use fdavar::report::fit::{allan_table, spans_table};
@@ -65,6 +66,31 @@ impl Selection {
     }
 }
 
+/// How long a record the whole-run fit keeps at full rate: a flag `fit`, `diagnose` and
+/// `analyze` share.
+#[derive(Debug, clap::Args, PartialEq)]
+pub struct RecordCap {
+    /// Values per axis the whole-run record keeps before it averages neighbouring pairs and τ0
+    /// doubles (default 1048576 = 2^20: 2.9 h at 100 Hz, 44 min at 400 Hz; at most 16777216 =
+    /// 2^24). A longer record keeps the shortest τ of a long recording (a sensor's low-pass near
+    /// Nyquist, quantization) at about 160 bytes per value at the peak: 2^21 peaked at 310 MB
+    /// where 2^20 peaks at 172 MB. The node's parameter `record_cap` is the same setting.
+    #[arg(long = "record-cap", value_name = "VALUES", default_value_t = RecordBuilder::DEFAULT_MAX_SAMPLES, value_parser = record_cap)]
+    pub values: usize,
+}
+
+/// Parses `--record-cap`: an integer in [[`RecordBuilder::DEFAULT_MAX_SAMPLES`],
+/// [`RecordBuilder::LARGEST_MAX_SAMPLES`]].
+fn record_cap(text: &str) -> Result<usize, String> {
+    let (lo, hi) = (RecordBuilder::DEFAULT_MAX_SAMPLES, RecordBuilder::LARGEST_MAX_SAMPLES);
+    match text.trim().parse::<usize>() {
+        Ok(v) if (lo..=hi).contains(&v) => Ok(v),
+        _ => Err(format!(
+            "values per axis, an integer in [{lo}, {hi}]: not less than the default, which is also the longest gap laid out in the record"
+        )),
+    }
+}
+
 /// Flags `fit` and `diagnose` share.
 #[derive(Debug, clap::Args, PartialEq)]
 pub struct Common {
@@ -86,6 +112,8 @@ pub struct Common {
     /// included): the cut that reproduces what the node published with `diagnosed_messages: N`.
     #[arg(long, value_name = "N")]
     pub first: Option<u64>,
+    #[command(flatten)]
+    pub record: RecordCap,
     /// Exit 3 when a model fails (fit_error > 2), for CI; without it a failing model is the
     /// finding: a warning on stderr and exit 0.
     #[arg(long)]
@@ -109,7 +137,7 @@ pub struct Common {
 
 pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let mut results = ResultsOut::create(&args.common)?;
-    let mut analysis = load(&args.bag, &args.model, args.common.selection.topic.as_deref(), args.common.first, results.as_mut())?;
+    let mut analysis = load(&Source::of(&args.bag, &args.model, &args.common), results.as_mut())?;
     let mut fits = Vec::new();
     for axis in args.common.selection.axes() {
         let f = analysis
@@ -270,36 +298,63 @@ impl ResultsOut {
     }
 }
 
+/// What a command analyses: which bag, topic and messages, with which models, in how long a
+/// record.
+#[derive(Debug, Clone, Copy)]
+pub struct Source<'a> {
+    /// The recording.
+    pub path: &'a Path,
+    /// The `--model` values.
+    pub model: &'a [String],
+    /// The Imu topic (`None`: the bag's only one).
+    pub topic: Option<&'a str>,
+    /// `--first`: at most this many IMU messages.
+    pub first: Option<u64>,
+    /// `--record-cap`: values per axis before the record halves.
+    pub record_cap: usize,
+}
+
+impl<'a> Source<'a> {
+    /// The source `fit` and `diagnose` read: `path` with `model` and the `common` flags.
+    pub fn of(path: &'a Path, model: &'a [String], common: &'a Common) -> Source<'a> {
+        Source {
+            path,
+            model,
+            topic: common.selection.topic.as_deref(),
+            first: common.first,
+            record_cap: common.record.values,
+        }
+    }
+
+    /// The whole of the bag at `path` on `topic`, in a record of the default cap.
+    pub fn whole(path: &'a Path, model: &'a [String], topic: Option<&'a str>) -> Source<'a> {
+        Source { path, model, topic, first: None, record_cap: RecordBuilder::DEFAULT_MAX_SAMPLES }
+    }
+}
+
 /// Feeds the IMU topic (and the temperature topic, if the bag has one) into an analysis with the
 /// `--model` values, in recorded order (nothing re-sorted: as `fdavar play` would deliver them to
 /// the node), up to `--first` IMU messages. With `results`, the analysis also makes F-DAVAR rows
 /// on the node's settings and with the node's τ0 rule, and they are written as they come.
-pub fn load(
-    path: &Path,
-    model: &[String],
-    topic: Option<&str>,
-    first: Option<u64>,
-    results: Option<&mut ResultsOut>,
-) -> anyhow::Result<Analysis> {
-    load_with(path, model, topic, first, results, &mut |_| Ok(()))
+pub fn load(source: &Source<'_>, results: Option<&mut ResultsOut>) -> anyhow::Result<Analysis> {
+    load_with(source, results, &mut |_| Ok(()))
 }
 
 /// [`load`], also handing every IMU message analysed, in the same order, to `each` (`fdavar
 /// analyze` feeds its F-DAVAR rows from the same single read of the bag).
 pub fn load_with(
-    path: &Path,
-    model: &[String],
-    topic: Option<&str>,
-    first: Option<u64>,
+    source: &Source<'_>,
     mut results: Option<&mut ResultsOut>,
     each: &mut dyn FnMut(&fdavar::signal::ImuSample) -> anyhow::Result<()>,
 ) -> anyhow::Result<Analysis> {
+    let Source { path, model, topic, first, record_cap } = *source;
     let models = axis_models(model, ModelSpec::DEFAULT).context("invalid --model")?;
     let bag = BagReader::open(path).with_context(|| format!("cannot open {}", path.display()))?;
     let imu_topic = bag.imu_topic(topic)?.name.clone();
     let temp_topic = bag.temperature_topic(None)?.map(|t| t.name.clone());
     let mut config = AnalysisConfig::whole_run(&models[0]);
     config.models = models;
+    config.max_samples = record_cap;
     if let Some(r) = &results {
         // As the node (src/ros/engine.rs).
         config = config.with_rows(r.davar.clone());

@@ -7,7 +7,7 @@
 //! is a row of the table, and the exit is 1 once all are done.
 
 use crate::diagnose::{diagnose_all, Args};
-use crate::fit::{load, print_json, FAILING_FIT_ERROR};
+use crate::fit::{load, print_json, Source, FAILING_FIT_ERROR};
 use crate::{Outcome, UsageError};
 use fdavar::analysis::on_threads;
 use fdavar::model::output::AxisReport;
@@ -97,7 +97,7 @@ pub fn run(args: &Args, bags: &[PathBuf], jobs: usize) -> anyhow::Result<Outcome
     let done = on_threads(bags, jobs, |bag| Diagnosed {
         bag: bag.clone(),
         result: (|| {
-            let mut analysis = load(bag, &args.model, common.selection.topic.as_deref(), common.first, None)?;
+            let mut analysis = load(&Source::of(bag, &args.model, common), None)?;
             let diagnoses = diagnose_all(&mut analysis, &axes, 1)?;
             let irr = analysis.irregularities();
             Ok::<_, anyhow::Error>((diagnoses, irr.total(), irr.describe()))

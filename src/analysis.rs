@@ -432,6 +432,25 @@ pub fn return_large_buffers_to_kernel() {
     set_malloc_thresholds(128 << 10, 128 << 10, 1);
 }
 
+/// Gives the kernel back every whole free page of the heap, also those between live objects
+/// (glibc's `malloc_trim(0)`); the node calls it after each diagnosis.
+///
+/// Why: [`return_large_buffers_to_kernel`] returns the series-sized buffers and the heap's free
+/// top, but a round also frees many smaller buffers (per τ, per span, per candidate) among
+/// objects that live on (DDS samples, rows), and their pages stayed resident: with the record's
+/// cap at 2²⁰ values, the hostile 24 h soak at 25× (`cargo bench --bench node_soak -- hostile
+/// 24 1800 25`) held 85.7 MB between rounds at 6–12 h and 92.0 MB at 18–24 h (+7.4 %, after a
+/// step between 10 h and 17 h), with the high-water mark flat (168.7, 170.1 MB). On other
+/// allocators it does nothing.
+pub fn give_back_free_heap_pages() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: malloc_trim only releases free memory of glibc's arenas; it takes each arena's
+    // lock as malloc does.
+    unsafe {
+        libc::malloc_trim(0);
+    }
+}
+
 /// Lets a one-shot command reuse its freed buffers of up to 4 MB: they stay in the heap, and so
 /// does up to 8 MB of each arena's free top, instead of each such buffer faulting in fresh pages.
 ///

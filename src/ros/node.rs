@@ -975,6 +975,7 @@ fn diagnosis_loop(shared: &Shared, jobs: &Receiver<DiagnosisJob>) {
         let done = job.run();
         shared.lock().monitor.finish_diagnosis(done);
         shared.given_back.notify_all();
+        crate::analysis::give_back_free_heap_pages();
     }
 }
 

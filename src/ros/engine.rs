@@ -21,7 +21,8 @@ use crate::signal::{Axis, ImuSample, TemperatureSample};
 ///
 /// Why 2¹⁶ (64 bytes each, 4 MB): the longest diagnosis, of a full record (2²⁰ values per axis),
 /// takes well under the 1.6 s a record twice as long took on the slowest host measured (`fdavar
-/// diagnose --jobs 1`), 3 200 samples at 2 kHz; 2¹⁶ is 33 s at 2 kHz, so that only a stalled machine meets the cap.
+/// diagnose --jobs 1`), 3 200 samples at 2 kHz; 2¹⁶ is 33 s at 2 kHz, so that only a stalled
+/// machine meets the cap.
 pub const DEFERRED_CAP: usize = 1 << 16;
 
 /// [`Analysis`] as a [`RowEngine`].

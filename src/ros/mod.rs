@@ -61,10 +61,7 @@ pub fn default_engine(
 /// The `record_cap` parameter: values per axis the whole-run record keeps before halving (as
 /// `fdavar diagnose --record-cap`). Validated with the other parameters, so always in range.
 pub fn record_cap(config: &NodeConfig) -> usize {
-    match config.params.get("record_cap") {
-        Some(ros2_client::ParameterValue::Integer(v)) => usize::try_from(*v).unwrap_or(usize::MAX),
-        _ => crate::model::record::RecordBuilder::DEFAULT_MAX_SAMPLES,
-    }
+    usize::try_from(config.int("record_cap")).unwrap_or(usize::MAX)
 }
 
 #[cfg(test)]

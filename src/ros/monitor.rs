@@ -436,10 +436,10 @@ impl Monitor {
     /// its cap of 2²⁰ values per axis (about 0.28 s per axis there, measured: `fdavar diagnose
     /// --jobs 1` of 1.045·10⁶ samples, 2.3 s of CPU, 0.6 s of it reading the bag); six of them
     /// every 10 s would take 17 % of a core once the record is full (after 2.9 h at 100 Hz,
-    /// 8.7 min at 2 kHz). So the diagnoses spend a credit that `diagnosis_cpu_share` earns by the second of
-    /// wall clock: one expected to cost C (the latest of its axis, scaled by the record's
-    /// growth) starts once the credit holds C, and what it really cost is taken off when it
-    /// ends. One per publication and a round per period while the record is short, further
+    /// 8.7 min at 2 kHz). So the diagnoses spend a credit that `diagnosis_cpu_share` earns by
+    /// the second of wall clock: one expected to cost C (the latest of its axis, scaled by the
+    /// record's growth) starts once the credit holds C, and what it really cost is taken off when
+    /// it ends. One per publication and a round per period while the record is short, further
     /// apart as it grows.
     ///
     /// Why the credit is earned before it is spent: a diagnosis followed by a rest of its cost

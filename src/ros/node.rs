@@ -184,7 +184,7 @@ impl NodeConfig {
         }
     }
 
-    fn int(&self, name: &str) -> i64 {
+    pub(crate) fn int(&self, name: &str) -> i64 {
         match self.params.get(name) {
             Some(ParameterValue::Integer(i)) => *i,
             _ => 0,

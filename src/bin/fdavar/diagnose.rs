@@ -2,7 +2,7 @@
 //! physical effect the noise model misses, per axis, best first. Several recordings (or a
 //! directory of them): one summary table ([`crate::fleet`]).
 
-use crate::fit::{load, Source, outcome, print_json, title, write_files, write_fit, Common, ResultsOut, FAILING_FIT_ERROR};
+use crate::fit::{load, outcome, print_json, title, write_files, write_fit, Common, ResultsOut, Source, FAILING_FIT_ERROR};
 use crate::Outcome;
 use anyhow::Context;
 use fdavar::analysis::Analysis;

@@ -363,6 +363,8 @@ pub struct Pipeline {
     running: Option<Running>,
     /// The χ² intervals the axes' engines share.
     intervals: SharedIntervals,
+    /// Whether rows hold only their shortest τ ([`Pipeline::shortest_tau_only`]).
+    shortest_tau_only: bool,
 }
 
 impl std::fmt::Debug for Pipeline {
@@ -403,6 +405,7 @@ impl Pipeline {
             placed: Vec::new(),
             running: None,
             intervals: SharedIntervals::default(),
+            shortest_tau_only: false,
         };
         // Validate the engine configuration now, with a placeholder period when none is given.
         pipeline.engine_for(Axis::GyroX, pipeline.config.tau0.unwrap_or(1.0))?;
@@ -417,6 +420,14 @@ impl Pipeline {
     /// inversions are made once (the same numbers either way).
     pub fn sharing_intervals(mut self, intervals: SharedIntervals) -> Self {
         self.intervals = intervals;
+        self
+    }
+
+    /// The same pipeline whose rows hold only their shortest τ
+    /// ([`DavarEngine::shortest_tau_only`]): for a caller that reads of the rows their windows, F
+    /// and events, not their Allan curves. Those are the same as with full rows.
+    pub fn shortest_tau_only(mut self) -> Self {
+        self.shortest_tau_only = true;
         self
     }
 
@@ -440,7 +451,8 @@ impl Pipeline {
             sigma_ref,
             f_target: self.config.f_target,
         };
-        Ok(DavarEngine::with_intervals(engine, self.config.policy.build(), self.intervals.clone())?)
+        let engine = DavarEngine::with_intervals(engine, self.config.policy.build(), self.intervals.clone())?;
+        Ok(if self.shortest_tau_only { engine.shortest_tau_only() } else { engine })
     }
 
     /// The nominal period in use, once known.

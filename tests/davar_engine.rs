@@ -175,6 +175,29 @@ proptest! {
     }
 
     #[test]
+    fn rows_of_the_shortest_tau_only_are_the_full_rows_cut_to_their_first_point(
+        seed in any::<u64>(),
+        invalid in prop_oneof![Just(0.0), 0.0..0.05f64],
+    ) {
+        let data = signal(seed, 2500, invalid);
+        let engine = || DavarEngine::new(config(151, SigmaRef::Running, FTarget::Auto { band_z: 2.0, warmup_rows: 200 }), Box::new(SignPolicy::new(31, 151, 4))).unwrap();
+        let mut full = engine();
+        let mut short = engine().shortest_tau_only();
+        let (full_rows, short_rows) = (run(&mut full, &data), run(&mut short, &data));
+        prop_assert_eq!(full_rows.len(), short_rows.len());
+        prop_assert!(full_rows.iter().any(|r| r.points().len() > 1));
+        for (a, b) in full_rows.iter().zip(&short_rows) {
+            // Bit for bit: the window policy and the change detector read these.
+            prop_assert_eq!((a.index, a.window, a.valid_samples, a.excluded_terms), (b.index, b.window, b.valid_samples, b.excluded_terms));
+            prop_assert_eq!((a.variance.to_bits(), a.f.map(f64::to_bits)), (b.variance.to_bits(), b.f.map(f64::to_bits)));
+            prop_assert_eq!(a.f_target.map(f64::to_bits), b.f_target.map(f64::to_bits));
+            prop_assert_eq!(b.points().len(), a.points().len().min(1));
+            prop_assert_eq!(a.first_point(), b.first_point());
+        }
+        prop_assert_eq!(full.excluded_terms(), short.excluded_terms());
+    }
+
+    #[test]
     fn real_policies_match_brute_force(seed in any::<u64>(), which in 0usize..3, target in 0.2f64..3.0) {
         let data = signal(seed, 1800, 0.0);
         let policy: Box<dyn WindowPolicy> = match which {

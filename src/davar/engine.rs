@@ -142,6 +142,8 @@ pub struct DavarEngine {
     t: u64,
     w: usize,
     excluded_total: u64,
+    /// Whether rows hold only their shortest τ ([`DavarEngine::shortest_tau_only`]).
+    shortest_tau_only: bool,
 }
 
 impl std::fmt::Debug for DavarEngine {
@@ -268,8 +270,20 @@ impl DavarEngine {
             t: (w / 2) as u64,
             w,
             excluded_total: 0,
+            shortest_tau_only: false,
             policy,
         })
+    }
+
+    /// The same engine whose rows hold only their shortest τ: the point the change detector reads.
+    ///
+    /// Why: a caller that keeps of each row its window, F and that point (`fdavar analyze`
+    /// without figures) would otherwise have every row's K variances computed and dropped, a
+    /// sixth of its row workers' time (`perf record`). Windows, F, the shortest point and the
+    /// excluded-term count are those of the full rows, bit for bit.
+    pub fn shortest_tau_only(mut self) -> Self {
+        self.shortest_tau_only = true;
+        self
     }
 
     /// Pushes one rate sample (`None` or a non-finite value = missing/invalid) and appends the rows
@@ -507,6 +521,7 @@ impl DavarEngine {
         let w = self.w;
         // The factors are ascending: those with 3m ≤ W are the first `used`.
         let used = self.factors.partition_point(|&m| 3 * m <= w);
+        let kept = if self.shortest_tau_only { used.min(1) } else { used };
         let span = 2 * self.len;
         // The terms starting in [a, a + total) are those completed between the positions
         // e − total and e (the prefixes are stored where their latest term completed).
@@ -522,18 +537,18 @@ impl DavarEngine {
             let slot = w % MEMO_SLOTS;
             if self.layouts[slot].window != w {
                 let (memo, shared) = (&mut self.interval_of, &self.intervals);
-                let points = (0..used)
+                let points = (0..kept)
                     .map(|i| PointLayout::of(i, self.factors[i], &self.scales[i], w - 2 * self.factors[i] + 1, w, memo, shared))
                     .collect();
                 self.layouts[slot] = Arc::new(RowLayout { window: w, points });
                 self.inverse_divisors[slot].clear();
                 self.inverse_divisors[slot].extend(
-                    self.factors[..used].iter().zip(&self.scales).map(|(&m, scale)| 1.0 / (scale.two_m2 * (w - 2 * m + 1) as f64)),
+                    self.factors[..kept].iter().zip(&self.scales).map(|(&m, scale)| 1.0 / (scale.two_m2 * (w - 2 * m + 1) as f64)),
                 );
             }
             // σ² = sum × 1/(2m²·terms): a product per factor, without branches or calls, straight
             // into the row (the quotients were the row's latency).
-            let factors = self.factors[..used].iter().zip(&self.inverse_divisors[slot]);
+            let factors = self.factors[..kept].iter().zip(&self.inverse_divisors[slot]);
             avars_out.extend(factors.enumerate().map(|(i, (&m, &inverse))| window_sum(i, m) * inverse));
             match self.spare_layout.take() {
                 Some(spare) if Arc::ptr_eq(&spare, &self.layouts[slot]) => spare,
@@ -547,7 +562,7 @@ impl DavarEngine {
                 let at = i * span + e;
                 let terms = (counts[at] - counts[at - (w - 2 * m + 1)]) as usize;
                 excluded += w - 2 * m + 1 - terms;
-                if terms > 0 {
+                if terms > 0 && (points.is_empty() || !self.shortest_tau_only) {
                     // Through i64: a count is far below 2⁵³, so the value is the same, and the
                     // conversion is one instruction (u64's is a sequence).
                     avars_out.push(window_sum(i, m) / (scale.two_m2 * terms as i64 as f64));

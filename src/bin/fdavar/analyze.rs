@@ -149,7 +149,13 @@ pub fn run(args: &Args) -> anyhow::Result<Outcome> {
     let intervals = SharedIntervals::default();
     let pipelines = groups
         .iter()
-        .map(|g| Pipeline::new(davar.clone(), g, None).map(|p| p.sharing_intervals(intervals.clone())))
+        .map(|g| {
+            Pipeline::new(davar.clone(), g, None).map(|p| {
+                let p = p.sharing_intervals(intervals.clone());
+                // Without figures only the rows' windows and events are read.
+                if args.out.is_some() { p } else { p.shortest_tau_only() }
+            })
+        })
         .collect::<Result<Vec<_>, _>>()
         .context("cannot start the DAVAR pipeline")?;
     let (analysis, diagnoses, rows) = std::thread::scope(|scope| -> anyhow::Result<_> {

@@ -4,7 +4,7 @@
 //!
 //! Untimed setup: `fdavar simulate` writes HOURS of bags/specs/clean.yaml at 100 Hz into a
 //! temporary directory, and the six axes are exported as raw little-endian f64 for Python.
-//! Timed, REPEATS times each, medians printed:
+//! Timed, REPEATS times each, interleaved (fdavar, allantools, fdavar, …), medians printed:
 //! - `fdavar analyze BAG --json --jobs JOBS` as a process, wall clock: bag decoded once, F-DAVAR
 //!   rows and events of the six axes, the N,B,K fit and the diagnosis;
 //! - allantools' static OADEV (`allantools.oadev`, frequency data, rate 100 Hz) of the six axes at
@@ -13,8 +13,9 @@
 //!   `<crate>/.venv/bin/python`, as tests/common finds it).
 //!
 //! Prints the ratio (allantools / fdavar; above 1: fdavar does the whole job faster than
-//! allantools does OADEV alone) and an FNV-1a 64 checksum of fdavar's JSON, the same on every
-//! repeat (checked) and the same across builds that change no result.
+//! allantools does OADEV alone) of the two medians and the median of the pairs' ratios, and an
+//! FNV-1a 64 checksum of fdavar's JSON, the same on every repeat (checked) and the same across
+//! builds that change no result.
 
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -55,8 +56,13 @@ fn main() {
     if let Some(j) = jobs {
         cmd.args(["--jobs", &j.to_string()]);
     }
-    let mut ours = Vec::new();
-    let mut sums = Vec::new();
+    let factors = TauGrid::default().factors(n / 3);
+    let taus: Vec<String> = factors.iter().map(|m| format!("{:?}", *m as f64 / RATE_HZ)).collect();
+    // Without allantools the baseline is left out, python_with saying why.
+    let mut python = common::python_with("import numpy, allantools", ".ci/python-allan.txt");
+    let (mut ours, mut theirs, mut sums) = (Vec::new(), Vec::new(), Vec::new());
+    // Interleaved, one of each per repeat: a host whose speed drifts over the minutes of the run
+    // then slows both alike, and each pair's ratio is taken in the same moment.
     for _ in 0..repeats {
         let t0 = Instant::now();
         let out = cmd.output().expect("run fdavar analyze");
@@ -67,17 +73,8 @@ fn main() {
             String::from_utf8_lossy(&out.stderr)
         );
         sums.push(fnv1a(&out.stdout));
-    }
-    assert!(sums.windows(2).all(|w| w[0] == w[1]), "the JSON differs between repeats");
-
-    let factors = TauGrid::default().factors(n / 3);
-    let taus: Vec<String> = factors.iter().map(|m| format!("{:?}", *m as f64 / RATE_HZ)).collect();
-    // Without allantools the baseline is left out, python_with saying why.
-    let python = common::python_with("import numpy, allantools", ".ci/python-allan.txt");
-    let mut theirs = Vec::new();
-    for _ in 0..repeats {
-        let Some(python) = &python else { break };
-        let out = Command::new(python)
+        let Some(py) = &python else { continue };
+        let out = Command::new(py)
             .args(["-c", PYTHON, raw.to_str().unwrap(), &n.to_string(), &RATE_HZ.to_string(), &taus.join(",")])
             .output();
         match out {
@@ -86,14 +83,15 @@ fn main() {
             }
             Ok(out) => {
                 println!("allantools baseline skipped: {}", String::from_utf8_lossy(&out.stderr).trim());
-                break;
+                python = None;
             }
             Err(e) => {
-                println!("allantools baseline skipped: {}: {e} (set FDAVAR_PYTHON)", python.display());
-                break;
+                println!("allantools baseline skipped: {}: {e} (set FDAVAR_PYTHON)", py.display());
+                python = None;
             }
         }
     }
+    assert!(sums.windows(2).all(|w| w[0] == w[1]), "the JSON differs between repeats");
 
     println!(
         "{hours} h at {RATE_HZ} Hz ({n} messages), {} jobs",
@@ -108,6 +106,11 @@ fn main() {
             theirs
         );
         println!("ratio allantools / fdavar: {:.2}", median(&theirs) / median(&ours));
+        if theirs.len() == ours.len() {
+            let pairs: Vec<f64> = theirs.iter().zip(&ours).map(|(t, o)| t / o).collect();
+            let formatted: Vec<String> = pairs.iter().map(|r| format!("{r:.2}")).collect();
+            println!("ratio of each interleaved pair: median {:.2} of [{}]", median(&pairs), formatted.join(", "));
+        }
     }
     println!("JSON checksum (FNV-1a 64): {:016x}", sums[0]);
 }

@@ -5,6 +5,9 @@
 //! while) fits N,B,K on its whole-record Allan variance and fails on the spans that hold the
 //! burst: the figure must say so with the whole record's own error beside fit_error and a panel
 //! of the spans, the failing ones shaded. Checked against the library's fit of the same recording.
+mod common;
+
+use common::shaded;
 use fdavar::analysis::{Analysis, AnalysisConfig};
 use fdavar::bag::{BagMessage, BagReader};
 use fdavar::model::{FittedModel, ModelSpec};
@@ -26,11 +29,6 @@ fn library_fit(bag: &Path) -> FittedModel {
     }
     analysis.finish();
     analysis.fit(Axis::GyroX).unwrap()
-}
-
-/// The shaded rectangles of an SVG (the failing τ ranges and the failing spans: opacity 0.16).
-fn shaded(svg: &str) -> usize {
-    svg.split("<rect").skip(1).filter(|r| r.split('>').next().unwrap_or("").contains("0.16")).count()
 }
 
 #[test]

@@ -5,6 +5,9 @@
 //! seeded χ²-like scatter, a DAVAR surface of white noise with a ×3 burst, and an F-value trace
 //! computed from seeded white noise. Set `FDAVAR_REPORT_GALLERY=DIR` to keep the figures in DIR
 //! (that is how `docs/img/` was made); otherwise they go to a temporary directory.
+mod common;
+
+use common::shaded;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
@@ -445,11 +448,6 @@ fn spans(failing: &[usize]) -> Vec<SpanScore> {
             louder: i % 3 != 0,
         })
         .collect()
-}
-
-/// The `fill-opacity="0.16"` rectangles of an SVG: the shaded failing ranges (τ and time).
-fn shaded(svg: &str) -> usize {
-    svg.split("<rect").skip(1).filter(|r| r.split('>').next().unwrap_or("").contains("0.16")).count()
 }
 
 #[test]

@@ -39,15 +39,13 @@ pub fn default_engine(
             reason,
         })
     };
-    let text = |name: &str| match config.params.get(name) {
-        Some(ros2_client::ParameterValue::String(spec)) => Ok(spec.clone()),
-        _ => Err(invalid(name, "not a string".to_string())),
-    };
-    let global = engine::model_spec(&text("model")?).map_err(|e| invalid("model", e))?;
+    // The parameters were validated: each model parameter is a string (axis overrides may be
+    // empty), read as the node's other strings are.
+    let global = engine::model_spec(&config.text("model")).map_err(|e| invalid("model", e))?;
     let mut overrides: [Option<crate::model::ModelSpec>; 6] = Default::default();
     for axis in crate::signal::Axis::ALL {
         let name = params::axis_model_param(axis);
-        let spec = text(&name)?;
+        let spec = config.text(&name);
         if !spec.trim().is_empty() {
             overrides[axis.index()] =
                 Some(engine::model_spec(&spec).map_err(|e| invalid(&name, e))?);

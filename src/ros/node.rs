@@ -184,6 +184,7 @@ impl NodeConfig {
         }
     }
 
+    /// The integer parameter `name` (0 when it is not one; validated parameters always are).
     pub(crate) fn int(&self, name: &str) -> i64 {
         match self.params.get(name) {
             Some(ParameterValue::Integer(i)) => *i,
@@ -195,7 +196,8 @@ impl NodeConfig {
         matches!(self.params.get(name), Some(ParameterValue::Boolean(true)))
     }
 
-    fn text(&self, name: &str) -> String {
+    /// The string parameter `name` (empty when it is not one; validated parameters always are).
+    pub(crate) fn text(&self, name: &str) -> String {
         match self.params.get(name) {
             Some(ParameterValue::String(s)) => s.clone(),
             _ => String::new(),

@@ -7,6 +7,7 @@ use std::process::Command;
 /// `FDAVAR_PYTHON`, else `<crate>/.venv/bin/python`. Without one, says why and how to install
 /// (`requirements`: the `.ci/python-*.txt` file) and returns None, so the test skips — unless
 /// `FDAVAR_REQUIRE_PYTHON=1` (CI), where a missing tool is a failure.
+#[allow(dead_code)] // The figure tests include this module for `shaded` alone.
 pub fn python_with(imports: &str, requirements: &str) -> Option<PathBuf> {
     let python = std::env::var_os("FDAVAR_PYTHON")
         .map(PathBuf::from)
@@ -45,4 +46,11 @@ pub fn param_as_message(p: &serde_json::Value) -> serde_json::Value {
         v => v.clone(),
     };
     serde_json::json!({"value": value, "sigma": p["sigma"], "unit": p["unit"]})
+}
+
+/// The shaded rectangles of a figure's SVG: the failing τ ranges and the failing spans, drawn at
+/// `fill-opacity="0.16"`.
+#[allow(dead_code)] // Only the figure tests count them.
+pub fn shaded(svg: &str) -> usize {
+    svg.split("<rect").skip(1).filter(|r| r.split('>').next().unwrap_or("").contains("0.16")).count()
 }

@@ -155,6 +155,28 @@ impl RecordBuilder {
     /// periods is laid out in the record, which must be able to hold it.
     pub const LARGEST_MAX_SAMPLES: usize = 1 << 24;
 
+    /// A cap a user asked for (`fdavar … --record-cap`, the node's `record_cap`), as written,
+    /// checked against [[`Self::DEFAULT_MAX_SAMPLES`], [`Self::LARGEST_MAX_SAMPLES`]]: the one
+    /// check and message of the CLI and the node.
+    ///
+    /// ```
+    /// use fdavar::model::record::RecordBuilder;
+    /// assert_eq!(RecordBuilder::user_cap("2097152"), Ok(1 << 21));
+    /// assert!(RecordBuilder::user_cap("524288").unwrap_err().contains("[1048576, 16777216], got 524288"));
+    /// assert!(RecordBuilder::user_cap("lots").is_err());
+    /// ```
+    ///
+    /// # Errors
+    /// The range, what was given, and why nothing below the default is accepted.
+    pub fn user_cap(given: &str) -> Result<usize, String> {
+        let (lo, hi) = (Self::DEFAULT_MAX_SAMPLES, Self::LARGEST_MAX_SAMPLES);
+        given.trim().parse::<usize>().ok().filter(|v| (lo..=hi).contains(v)).ok_or_else(|| {
+            format!(
+                "values per axis, an integer in [{lo}, {hi}], got {given}: not less than the default, which is also the longest gap laid out in the record"
+            )
+        })
+    }
+
     /// A builder with period `tau0` (seconds; `None`: learned from the first stamps) that keeps
     /// at most `max_samples` (at least 1024) values per axis.
     pub fn new(tau0: Option<f64>, max_samples: usize) -> RecordBuilder {

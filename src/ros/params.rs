@@ -210,7 +210,10 @@ pub static NODE_PARAMS: &[ParamSpec] = &[
               bytes per value at a round's peak, and each round costs in proportion; the same as \
               `fdavar diagnose --record-cap`. [2^20, 2^24].",
         default: || ParameterValue::Integer(RecordBuilder::DEFAULT_MAX_SAMPLES as i64),
-        validate: |v| int_in(v, RecordBuilder::DEFAULT_MAX_SAMPLES as i64, RecordBuilder::LARGEST_MAX_SAMPLES as i64),
+        validate: |v| match v {
+            ParameterValue::Integer(i) => RecordBuilder::user_cap(&i.to_string()).map(drop),
+            other => Err(format!("must be an integer, got {other:?}")),
+        },
         live: false,
     },
     ParamSpec {

@@ -75,20 +75,8 @@ pub struct RecordCap {
     /// 2^24). A longer record keeps the shortest τ of a long recording (a sensor's low-pass near
     /// Nyquist, quantization) at about 160 bytes per value at the peak: 2^21 peaked at 310 MB
     /// where 2^20 peaks at 172 MB. The node's parameter `record_cap` is the same setting.
-    #[arg(long = "record-cap", value_name = "VALUES", default_value_t = RecordBuilder::DEFAULT_MAX_SAMPLES, value_parser = record_cap)]
+    #[arg(long = "record-cap", value_name = "VALUES", default_value_t = RecordBuilder::DEFAULT_MAX_SAMPLES, value_parser = RecordBuilder::user_cap)]
     pub values: usize,
-}
-
-/// Parses `--record-cap`: an integer in [[`RecordBuilder::DEFAULT_MAX_SAMPLES`],
-/// [`RecordBuilder::LARGEST_MAX_SAMPLES`]].
-fn record_cap(text: &str) -> Result<usize, String> {
-    let (lo, hi) = (RecordBuilder::DEFAULT_MAX_SAMPLES, RecordBuilder::LARGEST_MAX_SAMPLES);
-    match text.trim().parse::<usize>() {
-        Ok(v) if (lo..=hi).contains(&v) => Ok(v),
-        _ => Err(format!(
-            "values per axis, an integer in [{lo}, {hi}]: not less than the default, which is also the longest gap laid out in the record"
-        )),
-    }
 }
 
 /// Flags `fit` and `diagnose` share.
@@ -199,6 +187,9 @@ pub fn write_files<'a>(
     bag: &Path,
     fits: impl Iterator<Item = &'a FittedModel>,
 ) -> anyhow::Result<()> {
+    if let Some(dir) = csv {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
     for f in fits {
         if let Some(dir) = out {
             let stem = dir.join(format!("allan_{}", f.axis));
@@ -208,9 +199,7 @@ pub fn write_files<'a>(
         if let Some(dir) = csv {
             for (name, table) in [("allan", allan_table(f)), ("spans", spans_table(f))] {
                 let path = dir.join(format!("{name}_{}.csv", f.axis));
-                std::fs::create_dir_all(dir)
-                    .and_then(|()| std::fs::write(&path, table.to_csv()))
-                    .with_context(|| format!("cannot write {}", path.display()))?;
+                std::fs::write(&path, table.to_csv()).with_context(|| format!("cannot write {}", path.display()))?;
             }
         }
     }

@@ -4,7 +4,7 @@
 //! ```text
 //! cargo bench --bench node_soak -- dds [HOURS] [DIAGNOSIS_PERIOD_S] [RATE]
 //! cargo bench --bench node_soak -- hostile [HOURS] [DIAGNOSIS_PERIOD_S] [RATE]
-//! cargo bench --bench node_soak -- in-process [HOURS] [DIAGNOSIS_PERIOD_S]
+//! cargo bench --bench node_soak -- in-process [HOURS] [DIAGNOSIS_PERIOD_S] [hostile]
 //! cargo bench --bench node_soak -- recording [HOURS] [DIR] [hostile]
 //! ```
 //! (defaults: 24 h, a diagnosis round every 1800 s of recording time, `--rate 100`).
@@ -33,7 +33,9 @@
 //! `in-process`: the node's engine and monitor (`AnalysisEngine` + `Monitor`, what the node's
 //! analysis thread runs) fed HOURS of white noise + random walk at 100 Hz from this process, a
 //! report every recorded second; the RSS is this process's. No DDS, no bag: the memory curve of
-//! the analysis alone, in a few minutes.
+//! the analysis alone, in a few minutes. With `hostile`, the samples carry the faults of the
+//! `hostile` mode at the same messages ([`hostile_clock_offset_ns`], [`hostile_hourly_fault`]),
+//! each received at its unshifted stamp (the replay's clock).
 //!
 //! Flat means, past 6 h (the whole-run record's cap of 2²⁰ samples per axis is reached at 2.9 h at 100 Hz):
 //! the RSS between diagnosis rounds does not grow (the median of the per-second RSS samples of the
@@ -173,7 +175,7 @@ fn main() {
             let rate: f64 = args.get(3).and_then(|a| a.parse().ok()).unwrap_or(100.0);
             dds(hours, period_s, rate, mode == "hostile")
         }
-        "in-process" => in_process(hours, period_s),
+        "in-process" => in_process(hours, period_s, args.get(3).is_some_and(|a| a == "hostile")),
         "recording" => {
             let out = args.get(2).map_or("soak_recording", String::as_str);
             let hostile = args.get(3).is_some_and(|a| a == "hostile");
@@ -193,7 +195,7 @@ fn main() {
 }
 
 /// The node's engine and monitor in this process (see the module doc).
-fn in_process(hours: f64, period_s: f64) -> bool {
+fn in_process(hours: f64, period_s: f64, hostile: bool) -> bool {
     use fdavar::model::ModelSpec;
     use fdavar::ros::engine::AnalysisEngine;
     use fdavar::ros::monitor::{Monitor, MonitorSettings};
@@ -228,7 +230,8 @@ fn in_process(hours: f64, period_s: f64) -> bool {
     let mut walk = [0.0; 6];
     let start = Instant::now();
     println!(
-        "in-process engine + monitor: {hours} h at {RATE_HZ} Hz, diagnosis every {period_s} s"
+        "in-process engine + monitor: {hours} h at {RATE_HZ} Hz, diagnosis every {period_s} s{}",
+        if hostile { ", with the hostile mode's faults" } else { "" }
     );
     for k in 0..total {
         let mut v = [0.0; 6];
@@ -237,12 +240,19 @@ fn in_process(hours: f64, period_s: f64) -> bool {
             *x = 1e-3 * normal.sample(&mut rng) + *w;
         }
         let stamp_ns = 1_700_000_000_000_000_000 + (k * 1_000_000_000 / RATE_HZ) as i64;
-        let sample = ImuSample {
+        let mut sample = ImuSample {
             stamp_ns,
             gyro: [v[0], v[1], v[2]],
             accel: [v[3], v[4], v[5]],
         };
-        monitor.push(sample, "imu_link", stamp_ns);
+        let mut copies = 1;
+        if hostile {
+            sample.stamp_ns += hostile_clock_offset_ns(k, total);
+            copies = hostile_hourly_fault(k, &mut sample).map_or(1, Fault::copies);
+        }
+        for _ in 0..copies {
+            monitor.push(sample, "imu_link", stamp_ns);
+        }
         if (k + 1) % RATE_HZ == 0 {
             monitor.report(stamp_ns);
         }
@@ -568,56 +578,83 @@ fn copy_first(bag: &Path, out: &Path, n: usize) {
     w.finish().unwrap();
 }
 
-/// Rewrites the recording `bag` into `out` with the faults of the `hostile` mode; returns what
-/// was written. Every hour (from the 10th minute): 200 samples with gyro_x NaN, 10 with every
-/// axis ±1e300, 5 messages sent twice (duplicated stamps), 3 with a zero stamp. At 40 % of the
-/// messages the stamps go 30 s back for the rest of the run (a driver restarted on an older
-/// clock: 50 backwards stamps, then a re-anchor); at 70 % they jump 13 h forward (more than the
-/// 2²⁰ periods of the longest gap laid out: a re-anchor). Log times, which pace the replay, are
-/// unchanged.
+/// A fault of the `hostile` mode written into one message ([`hostile_hourly_fault`]).
+#[derive(Clone, Copy, PartialEq)]
+enum Fault {
+    /// gyro_x NaN.
+    Nan,
+    /// Every axis ±1e300.
+    Huge,
+    /// The message sent twice (a duplicated stamp).
+    Doubled,
+    /// A zero stamp.
+    ZeroStamp,
+}
+
+impl Fault {
+    /// How many times the message is sent.
+    fn copies(self) -> usize {
+        if self == Fault::Doubled { 2 } else { 1 }
+    }
+}
+
+/// The hourly faults of the `hostile` mode, written into `sample`, message k of the run: from the
+/// 10th minute of every hour 200 samples with gyro_x NaN, 10 with every axis ±1e300, 5 messages
+/// sent twice, 3 with a zero stamp.
+fn hostile_hourly_fault(k: u64, sample: &mut fdavar::signal::ImuSample) -> Option<Fault> {
+    match k % (3600 * RATE_HZ) {
+        60_000..60_200 => {
+            sample.gyro[0] = f64::NAN;
+            Some(Fault::Nan)
+        }
+        90_000..90_010 => {
+            let v = if k.is_multiple_of(2) { 1e300 } else { -1e300 };
+            sample.gyro = [v; 3];
+            sample.accel = [v; 3];
+            Some(Fault::Huge)
+        }
+        120_000..120_005 => Some(Fault::Doubled),
+        150_000..150_003 => {
+            sample.stamp_ns = 0;
+            Some(Fault::ZeroStamp)
+        }
+        _ => None,
+    }
+}
+
+/// The stamps' offset in the `hostile` mode at message k of `total`: 30 s back from 40 % of the
+/// messages for the rest of the run (a driver restarted on an older clock: 50 backwards stamps,
+/// then a re-anchor), 13 h forward from 70 % (more than the 2²⁰ periods of the longest gap laid
+/// out: a re-anchor).
+fn hostile_clock_offset_ns(k: u64, total: u64) -> i64 {
+    let back = if k >= total * 2 / 5 { -30_000_000_000 } else { 0 };
+    let forward = if k >= total * 7 / 10 { 13 * 3_600_000_000_000 } else { 0 };
+    back + forward
+}
+
+/// Rewrites the recording `bag` into `out` with the faults of the `hostile` mode
+/// ([`hostile_hourly_fault`], [`hostile_clock_offset_ns`]); returns what was written. Log times,
+/// which pace the replay, are unchanged.
 fn inject_faults(bag: &Path, out: &Path, total: u64) -> String {
     let reader = fdavar::bag::BagReader::open(bag).expect("open bag");
     let topic = reader.imu_topic(None).expect("IMU topic").name.clone();
     let mut w = fdavar::bag::BagWriter::create(out).expect("create bag");
-    let hour = 3600 * RATE_HZ;
     let (mut nan, mut huge, mut doubled, mut zero) = (0, 0, 0, 0);
-    let mut offset_ns = 0_i64;
     let messages = reader.messages(&topic, None).expect("messages");
     for (k, m) in (0_u64..).zip(messages) {
         let Ok(fdavar::bag::BagMessage::Imu { log_time_ns, mut sample }) = m else {
             continue;
         };
-        if k == total * 2 / 5 {
-            offset_ns -= 30_000_000_000;
+        sample.stamp_ns += hostile_clock_offset_ns(k, total);
+        let fault = hostile_hourly_fault(k, &mut sample);
+        match fault {
+            Some(Fault::Nan) => nan += 1,
+            Some(Fault::Huge) => huge += 1,
+            Some(Fault::Doubled) => doubled += 1,
+            Some(Fault::ZeroStamp) => zero += 1,
+            None => {}
         }
-        if k == total * 7 / 10 {
-            offset_ns += 13 * 3_600_000_000_000;
-        }
-        sample.stamp_ns += offset_ns;
-        let in_hour = k % hour;
-        let mut copies = 1;
-        match in_hour {
-            60_000..60_200 => {
-                sample.gyro[0] = f64::NAN;
-                nan += 1;
-            }
-            90_000..90_010 => {
-                let v = if k % 2 == 0 { 1e300 } else { -1e300 };
-                sample.gyro = [v; 3];
-                sample.accel = [v; 3];
-                huge += 1;
-            }
-            120_000..120_005 => {
-                copies = 2;
-                doubled += 1;
-            }
-            150_000..150_003 => {
-                sample.stamp_ns = 0;
-                zero += 1;
-            }
-            _ => {}
-        }
-        for _ in 0..copies {
+        for _ in 0..fault.map_or(1, Fault::copies) {
             w.write_imu(&topic, log_time_ns, &sample, "imu_link").unwrap();
         }
     }

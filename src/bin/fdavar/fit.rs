@@ -187,9 +187,6 @@ pub fn write_files<'a>(
     bag: &Path,
     fits: impl Iterator<Item = &'a FittedModel>,
 ) -> anyhow::Result<()> {
-    if let Some(dir) = csv {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    }
     for f in fits {
         if let Some(dir) = out {
             let stem = dir.join(format!("allan_{}", f.axis));
@@ -199,7 +196,9 @@ pub fn write_files<'a>(
         if let Some(dir) = csv {
             for (name, table) in [("allan", allan_table(f)), ("spans", spans_table(f))] {
                 let path = dir.join(format!("{name}_{}.csv", f.axis));
-                std::fs::write(&path, table.to_csv()).with_context(|| format!("cannot write {}", path.display()))?;
+                std::fs::create_dir_all(dir)
+                    .and_then(|()| std::fs::write(&path, table.to_csv()))
+                    .with_context(|| format!("cannot write {}", path.display()))?;
             }
         }
     }

@@ -142,8 +142,9 @@ pub struct DavarEngine {
     t: u64,
     w: usize,
     excluded_total: u64,
-    /// Whether rows hold only their shortest τ ([`DavarEngine::shortest_tau_only`]).
-    shortest_tau_only: bool,
+    /// The factors whose term sums are kept and put into rows: all of them, or the first only
+    /// ([`DavarEngine::shortest_tau_only`]). Every factor's valid-term count is kept either way.
+    summed_factors: usize,
 }
 
 impl std::fmt::Debug for DavarEngine {
@@ -270,7 +271,7 @@ impl DavarEngine {
             t: (w / 2) as u64,
             w,
             excluded_total: 0,
-            shortest_tau_only: false,
+            summed_factors: factors.len(),
             policy,
         })
     }
@@ -284,7 +285,7 @@ impl DavarEngine {
     /// 12.98 G → 10.74 G, cachegrind). Windows, F, the shortest point and the excluded-term count
     /// are those of the full rows, bit for bit.
     pub fn shortest_tau_only(mut self) -> Self {
-        self.shortest_tau_only = true;
+        self.summed_factors = 1;
         self
     }
 
@@ -400,10 +401,9 @@ impl DavarEngine {
         let complete = self.origin + p as u64 - self.base;
         let s1 = &self.sum1[..=p];
         let sums = &mut self.term_sums;
-        let summed = if self.shortest_tau_only { 1 } else { self.factors.len() };
         if !self.counts_held {
             // Every sample since base is valid, so is every term (see `counts_held`).
-            for (i, &m) in self.factors[..summed].iter().enumerate() {
+            for (i, &m) in self.factors[..self.summed_factors].iter().enumerate() {
                 let at = i * span + p;
                 sums[at] = if complete < 2 * m as u64 {
                     0.0 // no term of m starts at or after base yet
@@ -423,7 +423,7 @@ impl DavarEngine {
             }
             let ok = valid[p] - valid[p - 2 * m] == 2 * m as u64;
             counts[at] = counts[at - 1] + u64::from(ok);
-            if i < summed {
+            if i < self.summed_factors {
                 let d = s1[p] - 2.0 * s1[p - m] + s1[p - 2 * m];
                 sums[at] = sums[at - 1] + if ok { d * d } else { 0.0 };
             }
@@ -530,7 +530,7 @@ impl DavarEngine {
         let w = self.w;
         // The factors are ascending: those with 3m ≤ W are the first `used`.
         let used = self.factors.partition_point(|&m| 3 * m <= w);
-        let kept = if self.shortest_tau_only { used.min(1) } else { used };
+        let kept = used.min(self.summed_factors);
         let span = 2 * self.len;
         // The terms starting in [a, a + total) are those completed between the positions
         // e − total and e (the prefixes are stored where their latest term completed).
@@ -571,9 +571,9 @@ impl DavarEngine {
                 let at = i * span + e;
                 let terms = (counts[at] - counts[at - (w - 2 * m + 1)]) as usize;
                 excluded += w - 2 * m + 1 - terms;
-                // The shortest τ only: the first factor, the only one summed. No loss: a term of
-                // a longer m holds one of the first factor, so a row without the first has none.
-                if terms > 0 && (i == 0 || !self.shortest_tau_only) {
+                // Only the summed factors. For the shortest τ alone no point is lost: a term of a
+                // longer m holds one of the first factor, so a row without the first has none.
+                if terms > 0 && i < self.summed_factors {
                     // Through i64: a count is far below 2⁵³, so the value is the same, and the
                     // conversion is one instruction (u64's is a sequence).
                     avars_out.push(window_sum(i, m) / (scale.two_m2 * terms as i64 as f64));

@@ -15,6 +15,7 @@ data/adis_16405_imu2.rda ... imu6.rda, 10^6 samples each in the same units and c
 nobody tuned for.
 """
 import gzip
+import itertools
 import math
 import sys
 from pathlib import Path
@@ -52,6 +53,34 @@ def rows_of_rda(path: Path):
         yield [float(v) for v in row[:6]]
 
 
+def write_imu_bag(out: Path, samples, period_ns: int) -> None:
+    """Writes `samples`, (gx, gy, gz, ax, ay, az) in rad/s and m/s^2, as /imu messages of a rosbag2
+    MCAP at `out`, sample k stamped at 1 s + k x `period_ns` (no orientation, as REP 145 asks)."""
+    import numpy as np
+
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    t = ts.types
+    imu, header, stamp = t["sensor_msgs/msg/Imu"], t["std_msgs/msg/Header"], t["builtin_interfaces/msg/Time"]
+    quat, vec = t["geometry_msgs/msg/Quaternion"], t["geometry_msgs/msg/Vector3"]
+    unknown = np.zeros(9)
+    unknown[0] = -1.0  # orientation not provided, as REP 145 asks
+    zeros = np.zeros(9)
+    with Writer(out, version=8, storage_plugin=StoragePlugin.MCAP) as w:
+        conn = w.add_connection("/imu", imu.__msgtype__, typestore=ts)
+        for k, (gx, gy, gz, ax, ay, az) in enumerate(samples):
+            ns = 1_000_000_000 + k * period_ns
+            msg = imu(
+                header=header(stamp=stamp(sec=ns // 10**9, nanosec=ns % 10**9), frame_id="imu"),
+                orientation=quat(x=0.0, y=0.0, z=0.0, w=1.0),
+                orientation_covariance=unknown,
+                angular_velocity=vec(x=gx, y=gy, z=gz),
+                angular_velocity_covariance=zeros,
+                linear_acceleration=vec(x=ax, y=ay, z=az),
+                linear_acceleration_covariance=zeros,
+            )
+            w.write(conn, ns, ts.serialize_cdr(msg, imu.__msgtype__))
+
+
 def main() -> None:
     samples = int(sys.argv[1]) if len(sys.argv) > 1 else 360_000
     out = Path(sys.argv[2]) if len(sys.argv) > 2 else Path("/tmp/adis16405")
@@ -59,32 +88,9 @@ def main() -> None:
     if not source.exists():
         sys.exit(f"{source} not found (run 1 lives in ../shared/reference/real/)")
     rows = rows_of_rda(source) if source.suffix == ".rda" else rows_of_csv(source)
-    ts = get_typestore(Stores.ROS2_HUMBLE)
-    t = ts.types
-    imu, header, stamp = t["sensor_msgs/msg/Imu"], t["std_msgs/msg/Header"], t["builtin_interfaces/msg/Time"]
-    quat, vec = t["geometry_msgs/msg/Quaternion"], t["geometry_msgs/msg/Vector3"]
-    import numpy as np
-
-    unknown = np.zeros(9)
-    unknown[0] = -1.0  # orientation not provided, as REP 145 asks
-    zeros = np.zeros(9)
     deg, g = math.pi / 180.0, 9.80665
-    with Writer(out, version=8, storage_plugin=StoragePlugin.MCAP) as w:
-        conn = w.add_connection("/imu", imu.__msgtype__, typestore=ts)
-        for k, (gx, gy, gz, ax, ay, az) in enumerate(rows):
-            if k >= samples:
-                break
-            ns = 1_000_000_000 + k * 10_000_000
-            msg = imu(
-                header=header(stamp=stamp(sec=ns // 10**9, nanosec=ns % 10**9), frame_id="imu"),
-                orientation=quat(x=0.0, y=0.0, z=0.0, w=1.0),
-                orientation_covariance=unknown,
-                angular_velocity=vec(x=gx * deg, y=gy * deg, z=gz * deg),
-                angular_velocity_covariance=zeros,
-                linear_acceleration=vec(x=ax * g, y=ay * g, z=az * g),
-                linear_acceleration_covariance=zeros,
-            )
-            w.write(conn, ns, ts.serialize_cdr(msg, imu.__msgtype__))
+    si = ((gx * deg, gy * deg, gz * deg, ax * g, ay * g, az * g) for gx, gy, gz, ax, ay, az in rows)
+    write_imu_bag(out, itertools.islice(si, samples), 10_000_000)
 
 
 if __name__ == "__main__":

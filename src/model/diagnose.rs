@@ -27,6 +27,7 @@
 //! for composite stochastic processes", JASA 108(503), 2013 (GMWM; its WVIC model selection is in
 //! the `gmwm` R package); Whittle P., JRSS B 19(1), 1957; Rice S. O., Bell Syst. Tech. J. 24, 1945.
 
+use crate::allan::edf::white_fourth_cumulant;
 use crate::model::effects::{Domain, EffectKind, Evidence};
 use crate::model::fit::{
     fit, prepare, tau_correlation, AxisInput, CurveFit, FitError, FitOptions, FitPoint,
@@ -166,6 +167,11 @@ pub fn diagnose_planned(
     opts: &FitOptions,
     plans: &Plans,
 ) -> Result<Diagnosis, FitError> {
+    // The record's tails, measured once for every fit of every round (FitOptions::fourth_cumulant).
+    let opts = &FitOptions {
+        fourth_cumulant: Some(opts.fourth_cumulant.unwrap_or_else(|| white_fourth_cumulant(input.rate))),
+        ..*opts
+    };
     let mut first = weigh_once(input, spec, registry, opts, plans)?;
     let Some(best) = first.suggestions.first().map(|s| s.effect.clone()) else {
         return Ok(first);
@@ -218,6 +224,7 @@ fn weigh_once(
 ) -> Result<Diagnosis, FitError> {
     let mut base = prepare(input, spec, registry, opts)?;
     let before = base.fit_spectral(spec, &base.spectral_kinds, opts)?;
+    let fourth_cumulant = opts.fourth_cumulant.unwrap_or(0.0);
     let series = cleaned(input, &before, registry);
     // The candidates' frequency scans start from the record's lines too.
     base.look_for_lines(&series, input.tau0, plans);
@@ -255,7 +262,7 @@ fn weigh_once(
                     continue;
                 };
                 let Some(screen) =
-                    base_noise.as_ref().and_then(|w| time_test(kind, &est, input, &series, w, &before_at_bound))
+                    base_noise.as_ref().and_then(|w| time_test(kind, &est, input, &series, w, &before_at_bound, fourth_cumulant))
                 else {
                     continue;
                 };
@@ -300,7 +307,7 @@ fn weigh_once(
                                 let noise =
                                     if screen.absorbed { at_bound() } else { spectrum_of(&f, registry, input.tau0) };
                                 let w = base_noise.as_ref()?.with_noise(&noise)?;
-                                time_test(kind, &est, input, &series, &w, &at_bound)
+                                time_test(kind, &est, input, &series, &w, &at_bound, fourth_cumulant)
                             })
                             .map_or(screen.test, |t| t.test)
                     }
@@ -861,6 +868,7 @@ fn time_test<'a>(
     series: &[f64],
     w: &Whitened,
     bound: &dyn Fn() -> NoiseSpectrum,
+    fourth_cumulant: f64,
 ) -> Option<TimeTest<'a>> {
     let plain = |test| Some(TimeTest { test, driver: None, absorbed: false });
     match est.signature {
@@ -913,7 +921,7 @@ fn time_test<'a>(
         }
         Signature::WhiteLevel => {
             let blocks = series.len() / timedomain::block_len(input.tau0);
-            let factor = w.noise().burst_dof_factor() * timedomain::tail_factor(series, input.tau0);
+            let factor = w.noise().burst_dof_factor() * timedomain::tail_factor(series, input.tau0, fourth_cumulant);
             let statistic = est.strength / factor;
             let threshold = burst_threshold(blocks);
             plain(Test {

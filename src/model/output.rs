@@ -4,7 +4,7 @@
 //! "failing_tau": [[lo, hi]], "failing_spans": [[start_s, end_s]], "events": [{"effect",
 //! ...params}], "suggestions": [{"effect", "params": {param: P}, "fit_error_after",
 //! "explanation"}]}]}`, where every parameter P is `{"value", "sigma", "unit"}` ([`param_json`]);
-//! `fit` omits `suggestions`. Values are SI. Plain data, built from a [`FittedModel`] /
+//! `fit` omits `suggestions`; `"rate_excess_kurtosis"` appears on an axis with heavy-tailed noise. Values are SI. Plain data, built from a [`FittedModel`] /
 //! [`Diagnosis`]; no I/O here.
 
 use crate::model::diagnose::Diagnosis;
@@ -37,6 +37,11 @@ pub struct AxisReport {
     pub failing_spans: Vec<[f64; 2]>,
     /// Events: `{"effect": id, param: value, …}`.
     pub events: Vec<Map<String, Value>>,
+    /// Excess kurtosis of the white rate noise, present only when it is measurably above a
+    /// Gaussian's 0 ([`FittedModel::rate_excess_kurtosis`]): isolated spikes, for which every
+    /// interval and z was widened.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rate_excess_kurtosis: Option<f64>,
     /// Suggestions, best first (diagnose only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub suggestions: Option<Vec<Map<String, Value>>>,
@@ -101,6 +106,7 @@ impl AxisReport {
                 .map(|s| [s.start_s, s.end_s])
                 .collect(),
             events,
+            rate_excess_kurtosis: (fit.rate_excess_kurtosis > 0.0).then_some(fit.rate_excess_kurtosis),
             suggestions: None,
         }
     }

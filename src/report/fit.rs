@@ -146,6 +146,13 @@ pub fn write_fit(w: &mut dyn Write, f: &FittedModel, failing: f64) -> std::io::R
             f.whole_fit_error
         )?;
     }
+    if f.rate_excess_kurtosis > 0.0 {
+        writeln!(
+            w,
+            "  heavy-tailed rate noise: excess kurtosis {:.3} (isolated spikes: glitches, knocks); every interval and z is widened for it",
+            f.rate_excess_kurtosis
+        )?;
+    }
     for e in &f.events {
         // Event parameters are times (`*_s`, seconds) or a noise factor (dimensionless).
         let ps: Vec<String> = e

@@ -15,7 +15,9 @@
 //! all span points. A model with the missing time-domain effect removes it before both checks.
 //!
 //! The weights are those of the contract's z score: the standard deviation of an AVAR estimate is
-//! σ²_model·√(2/EDF), with the EDF of the model's own noise mix at each τ, iterated with the fit.
+//! σ²_model·√(2/EDF), with the EDF of the model's own noise mix at each τ, iterated with the fit,
+//! and widened where the rate noise is heavier-tailed than Gaussian
+//! ([`crate::allan::edf::edf_with_fourth_cumulant`]).
 //!
 //! Conventions the fitter relies on (the effect files follow them): a spectral effect's σ²(τ) is
 //! proportional to the square of its *first* parameter (the amplitude); its other parameters are
@@ -55,6 +57,7 @@ pub use types::{
     AxisInput, Event, FitError, FitOptions, FitPoint, FittedModel, FittedTerm, ParamValue, Span,
 };
 
+use crate::allan::edf::white_fourth_cumulant;
 use crate::allan::{oavar_rate_bridged_variances_in, AllanPoint, RatePoint};
 use crate::model::effects::{unit_on_axis, Domain, EffectKind};
 use crate::model::measure::NoiseClass;
@@ -232,6 +235,7 @@ pub fn prepare(
             } else {
                 Vec::new()
             },
+            fourth_cumulant: opts.fourth_cumulant.unwrap_or_else(|| white_fourth_cumulant(input.rate)),
             ..SampleContext::of(input.rate)
         },
         spectral_kinds,
@@ -293,6 +297,7 @@ impl Prepared {
             p.unit = unit_on_axis(&p.unit, self.axis);
         }
         let n_time: usize = self.time_terms.iter().map(|t| t.params.len()).sum();
+        let rate_excess_kurtosis = excess_kurtosis(sf.fourth_cumulant, &sf.points);
         Ok(FittedModel {
             axis: self.axis,
             spec: spec.clone(),
@@ -300,6 +305,7 @@ impl Prepared {
             points: sf.points,
             fit_error: sf.fit_error.max(span_fit_error),
             whole_fit_error: sf.fit_error,
+            rate_excess_kurtosis,
             chi2: sf.chi2,
             failing_tau: sf.failing_tau,
             failing_spans: failing_spans(&spans),
@@ -307,6 +313,18 @@ impl Prepared {
             events: self.events.clone(),
             n_params: sf.n_params + n_time,
         })
+    }
+}
+
+/// The excess kurtosis of the white rate noise that `fourth_cumulant` stands for: κ₄/σ⁴, with
+/// σ² = m·σ²(τ) read off the shortest τ of `points` (white noise's Allan variance is σ²/m).
+fn excess_kurtosis(fourth_cumulant: f64, points: &[FitPoint]) -> f64 {
+    match points.first() {
+        Some(p) if fourth_cumulant > 0.0 && p.measured > 0.0 => {
+            let variance = p.measured * p.m as f64;
+            fourth_cumulant / (variance * variance)
+        }
+        _ => 0.0,
     }
 }
 
@@ -327,6 +345,8 @@ pub struct CurveFit {
     pub n_params: usize,
     /// The noise class of each term (same order), which sets the EDF of its share of an estimate.
     pub classes: Vec<NoiseClass>,
+    /// The fourth cumulant of the white rate noise the EDFs were widened for (0: Gaussian).
+    pub fourth_cumulant: f64,
 }
 
 /// Fits spectral effects to Allan points (one DAVAR row, or a whole record).
@@ -359,6 +379,15 @@ struct SampleContext {
     /// The strongest peaks of the samples' periodogram, (frequency, bin width) in Hz: extra
     /// candidates of the frequency scan ([`periodogram::line_candidates`]); empty when not looked for.
     lines: Vec<(f64, f64)>,
+    /// The fourth cumulant of the record's white rate noise, 0 when Gaussian
+    /// ([`white_fourth_cumulant`]): it widens every EDF the fit and the span check use.
+    ///
+    /// Of the record as recorded, not of what is left once a model's time-domain effects are
+    /// removed: the tails are the sensor's, and every candidate of a diagnosis must be scored with
+    /// the same EDFs. (Removing a burst rescales samples off the output lattice, and a quantized
+    /// record read as spiky only once it was removed: a ×2.3 one-second "burst" then passed on
+    /// the ADIS16405's accel_z.)
+    fourth_cumulant: f64,
 }
 
 impl SampleContext {
@@ -370,6 +399,7 @@ impl SampleContext {
         SampleContext {
             mean_rate: (n > 0).then(|| sum / n as f64),
             lines: Vec::new(),
+            fourth_cumulant: 0.0,
         }
     }
 }
@@ -401,6 +431,7 @@ fn fit_points(
     }
     let mut problem = Problem::new(&points, &kinds)?;
     problem.line_hints.clone_from(&samples.lines);
+    problem.fourth_cumulant = samples.fourth_cumulant;
     let mut shapes = problem.initial_shapes();
     let iters = weight_iterations.max(1);
     if !shapes.is_empty() {

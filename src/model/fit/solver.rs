@@ -18,6 +18,7 @@ use super::types::{term_of, FitError, FitPoint};
 use super::CurveFit;
 use crate::allan::AllanPoint;
 use crate::model::effects::{Effect, EffectKind};
+use crate::allan::edf::edf_with_fourth_cumulant;
 use crate::model::measure::{edf_oavar, edf_of_mix, NoiseClass};
 use crate::model::nnls::nnls_from;
 use nalgebra::{DMatrix, DVector};
@@ -53,6 +54,9 @@ pub(super) struct Problem<'a> {
     /// Peaks of the samples' periodogram, (frequency, bin width) in Hz: extra candidates of
     /// every frequency's scan (see [`Problem::search_shapes`]).
     pub(super) line_hints: Vec<(f64, f64)>,
+    /// The fourth cumulant of the white rate noise (0: Gaussian), which widens every point's EDF
+    /// ([`edf_with_fourth_cumulant`]).
+    pub(super) fourth_cumulant: f64,
     /// Per point, the EDFs its model's parts are mixed from ([`edf_of_mix`]): made once, as
     /// the columns' classes are fixed.
     edfs: Vec<PointEdfs>,
@@ -132,6 +136,7 @@ impl<'a> Problem<'a> {
             output: None,
             muted: Vec::new(),
             line_hints: Vec::new(),
+            fourth_cumulant: 0.0,
             positive: Cell::new(Vec::new()),
             edfs: Vec::new(),
         };
@@ -203,6 +208,12 @@ impl<'a> Problem<'a> {
         p.terms + 2 * p.m
     }
 
+    /// `edf`, the Gaussian EDF of point `p` under a model of value `avar` there, widened for the
+    /// white noise's fourth cumulant ([`edf_with_fourth_cumulant`]; `edf` itself when Gaussian).
+    fn widened(&self, edf: f64, avar: f64, p: &AllanPoint) -> f64 {
+        edf_with_fourth_cumulant(edf, avar, p.m, p.terms, self.fourth_cumulant)
+    }
+
     /// The noise class of the model's fixed part ([`Problem::offset`]): the first output
     /// column's, else white PM.
     fn offset_class(&self) -> NoiseClass {
@@ -218,7 +229,8 @@ impl<'a> Problem<'a> {
         let k = self.points.len();
         let jn = self.columns.len();
         let meas: Vec<f64> = self.points.iter().map(|p| p.avar).collect();
-        let mut edf: Vec<f64> = self.edfs.iter().map(|e| e.white_fm).collect();
+        let mut edf: Vec<f64> =
+            self.edfs.iter().zip(self.points).map(|(e, p)| self.widened(e.white_fm, p.avar, p)).collect();
         let mut model = meas.clone();
         let mut c = vec![0.0; jn];
         let mut best_cost = f64::INFINITY;
@@ -270,7 +282,7 @@ impl<'a> Problem<'a> {
                         .chain((offset[i] > 0.0).then_some((offset[i], e.offset)))
                 };
                 model[i] = parts().map(|p| p.0).sum();
-                edf[i] = edf_of_mix(model[i], parts(), || e.white_fm);
+                edf[i] = self.widened(edf_of_mix(model[i], parts(), || e.white_fm), model[i], &self.points[i]);
             }
             ratios = log_ratios(&meas, &model);
             best_cost = log_cost_of(&ratios, &model, &edf);
@@ -337,6 +349,7 @@ impl<'a> Problem<'a> {
             points,
             n_params,
             classes: self.columns.iter().map(|c| c.class).collect(),
+            fourth_cumulant: self.fourth_cumulant,
         })
     }
 }

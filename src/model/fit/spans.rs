@@ -11,6 +11,7 @@
 use super::scoring::{rms, z_scores, FAILING_Z};
 use super::types::{FitOptions, Span};
 use super::CurveFit;
+use crate::allan::edf::edf_with_fourth_cumulant;
 use crate::allan::{oavar_rate_variances_with_spans_in, AllanPoint};
 use crate::model::measure::{edf_for_mix, NoiseClass};
 use serde::{Deserialize, Serialize};
@@ -138,7 +139,7 @@ pub(super) fn check_span(measure: &SpanMeasure, fit: &CurveFit) -> (SpanCheck, V
                 .map(|(t, &c)| (t.curve[i], c))
                 .collect();
             let model = fit.points[i].model;
-            let edf = edf_for_mix(&parts, p.terms + 2 * p.m, p.m);
+            let edf = edf_with_fourth_cumulant(edf_for_mix(&parts, p.terms + 2 * p.m, p.m), model, p.m, p.terms, fit.fourth_cumulant);
             let z = (edf >= MIN_SPAN_EDF).then(|| z_scores(&[p.avar], &[model], &[edf]))?.pop()?;
             Some((z, (p.tau, p.avar / model)))
         })
@@ -251,6 +252,7 @@ mod tests {
             failing_tau: Vec::new(),
             n_params: 1,
             classes: vec![NoiseClass::WhiteFm],
+            fourth_cumulant: 0.0,
         };
         let point = |m: usize, terms: usize| AllanPoint {
             m,

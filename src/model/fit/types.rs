@@ -51,6 +51,14 @@ pub struct FitOptions {
     /// Equal time spans on which the model is checked as well as on the whole record (0 or 1:
     /// whole record only). See [`FittedModel::spans`].
     pub spans: usize,
+    /// The fourth cumulant of the record's white rate noise, when the caller has measured it
+    /// ([`crate::allan::edf::white_fourth_cumulant`] of the rate as recorded); `None`: the fit
+    /// measures it on the rate it is given.
+    ///
+    /// Why given: a diagnosis refits one record many times, some of them on the rate less an
+    /// estimate (a driver's regression); the tails are the sensor's, measured once, and every
+    /// candidate is scored with the same EDFs.
+    pub fourth_cumulant: Option<f64>,
 }
 
 impl Default for FitOptions {
@@ -60,6 +68,7 @@ impl Default for FitOptions {
             max_m_fraction: 1.0 / 3.0,
             weight_iterations: 6,
             spans: DEFAULT_SPANS,
+            fourth_cumulant: None,
         }
     }
 }
@@ -241,6 +250,11 @@ pub struct FittedModel {
     pub fit_error: f64,
     /// RMS of z over the τ grid of the whole-record Allan variance alone.
     pub whole_fit_error: f64,
+    /// Excess kurtosis of the white rate noise (0: not measurably above Gaussian). When above,
+    /// isolated spikes make every Allan estimate scatter more than Gaussian noise would, and the
+    /// EDF of each point is widened for it ([`crate::allan::edf::edf_with_fourth_cumulant`]).
+    #[serde(default)]
+    pub rate_excess_kurtosis: f64,
     /// Σ z² over the whole-record τ grid.
     pub chi2: f64,
     /// **contract**: maximal τ intervals where |z| > 3, seconds.

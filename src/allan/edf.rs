@@ -462,7 +462,7 @@ pub const LATTICE_STEPS: f64 = 2.0;
 /// then one step, which is heavy-tailed but not independent spikes: the rounding error follows the
 /// input, and `quantization` describes it. Measured: a 1e-4 rad angle quantizer under 0.04 step of
 /// noise per sample (tests/quantization_dither.rs) read as excess kurtosis, and the widened fit
-/// put q 16 % high. A fine lattice (the ADIS16405's gyro: 9 steps per σ of the differences)
+/// put q 16 % high. A fine lattice (the ADIS16405's gyro: 9–11 steps per σ of the differences)
 /// changes the kurtosis by Sheppard's −h⁴/120, nothing to widen for.
 struct Lattice {
     step: f64,

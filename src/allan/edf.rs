@@ -403,7 +403,8 @@ pub const KURTOSIS_SIGMAS: f64 = 3.0;
 /// cumulant of d, twice that of y. Why the neighbour and not the record's E d²: a level that
 /// changes in time (a noise burst, a warm-up) raises the record's kurtosis, but dᵢ and dᵢ₊₂ see
 /// the same level, so the pair cancels it: non-stationarity stays the span check's to show.
-/// Correlated noise (a line, a low-pass) makes E u negative, never a false κ₄. SE is the
+/// Correlated Gaussian noise (a line, a low-pass) gives E u = −6ρ²(E d²)² ≤ 0, ρ the correlation
+/// of dᵢ and dᵢ₊₂: never a false κ₄. SE is the
 /// standard error from the means of [`KURTOSIS_BLOCKS`] consecutive blocks.
 ///
 /// ```

@@ -510,13 +510,18 @@ impl Lattice {
 /// assert_eq!(edf_with_fourth_cumulant(600.0, 1.0, 1, 900, 0.0), 600.0);
 /// // Excess kurtosis 3 at m = 1: the variance of the estimate doubles.
 /// assert!((edf_with_fourth_cumulant(600.0, 1.0, 1, 900, 3.0) - 300.0).abs() < 1e-9);
+/// // Never below one degree of freedom.
+/// assert_eq!(edf_with_fourth_cumulant(600.0, 1e-300, 1, 900, 3.0), 1.0);
 /// ```
 pub fn edf_with_fourth_cumulant(edf: f64, avar: f64, m: usize, terms: usize, kappa4: f64) -> f64 {
     if !(kappa4 > 0.0 && avar > 0.0) || terms == 0 || m == 0 {
         return edf;
     }
     let m = m as f64;
-    edf / (1.0 + kappa4 * edf / (2.0 * m * m * terms as f64 * avar * avar))
+    let widened = edf / (1.0 + kappa4 * edf / (2.0 * m * m * terms as f64 * avar * avar));
+    // An estimate is worth at least one degree of freedom (as the Gaussian EDFs), also where
+    // a tiny `avar` or a huge κ₄ would drive the quotient to 0 or NaN.
+    if widened.is_finite() { widened.max(edf.min(1.0)) } else { edf.min(1.0) }
 }
 
 #[cfg(test)]

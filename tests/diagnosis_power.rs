@@ -10,8 +10,10 @@
 mod power_common;
 
 use fdavar::model::effects::id;
+use rand::SeedableRng;
 use power_common::{
-    bias_step_at, clean, families, par_map, power_point, run, settings, wide_families, Family, Setting, WIDE_GRID,
+    bias_step_at, clean, clean_spiky, families, par_map, power_point, run, run_spiky, settings, wide_families, Family,
+    Setting, Spikes, WIDE_GRID,
 };
 
 /// Rates (Hz) and lengths (min) of the CI-sized runs.
@@ -136,4 +138,50 @@ fn assert_mostly_named(families: Vec<Family>, set_of: impl Fn(&Family) -> Vec<Se
 fn hidden_effects_are_named_with_parameters_drawn_wide() {
     let set = settings(12, WIDE_GRID, 70_000);
     assert_mostly_named(wide_families(), |_| set.clone());
+}
+
+/// Isolated spikes of a real sensor's size (one sample in 2 000 at ±30σ: excess kurtosis about
+/// 190; the XSens MTi-G gyro of docs/model.md, "Heavy tails", reads 117) on the settings of the
+/// stated-visibility test.
+const SPIKES: Spikes = Spikes { share: 5e-4, size: 30.0 };
+
+/// A noise burst in such spiky noise (issue 10; docs/model.md, "Heavy tails"): named first in at
+/// least 90 % of the 20 recordings at three times its stated visibility, its parameters within
+/// tolerance in at least 90 % of those. The burst search and its test read the record without its
+/// isolated spikes (`timedomain::despiked`). Measured (2026-11-29) at 1×, 1.5×, 2× and 3× the
+/// stated visibility: 13, 15, 16 and 19 of 20, every one within tolerance; before, at 2× and 3×:
+/// 4 (none within tolerance: the spikes were found) and 13 (6 within). Why not 90 % at 1×: the
+/// test now passes on all 20 (likelihood ratio 105–181 against a threshold of 15), but a located
+/// effect must also lower fit_error, and the Allan variance of a spiky record scatters too much
+/// (its EDF widened for the spikes) to show a ×1.1 burst over a tenth of the record.
+#[test]
+fn a_noise_burst_is_named_in_spiky_noise() {
+    let set = settings(20, GRID, 40_000);
+    let family = families().into_iter().find(|f| f.name == id::NOISE_BURST).unwrap();
+    let out = par_map(&set, 2, |s| {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(s.seed ^ 0x9e37_79b9);
+        run_spiky(s, &(family.make)(s, 3.0 * family.visible, &mut rng), SPIKES)
+    });
+    let detected = out.iter().filter(|o| o.detected).count();
+    let ok = out.iter().filter(|o| o.params_ok).count();
+    let suggested: Vec<&Vec<String>> = out.iter().map(|o| &o.suggested).collect();
+    println!("noise_burst at 3 x {} in spiky noise: named first {detected}/{}, within tolerance {ok}: {suggested:?}", family.visible, out.len());
+    assert!(detected * 10 >= 9 * out.len() && ok * 10 >= 9 * detected, "{detected}/{}, {ok} within: {suggested:?}", out.len());
+}
+
+/// Clean axes with isolated spikes: a suggestion on at most 2 % of 216 (measured 0, before and
+/// after the burst search learned to read past spikes; with the first despiking, a single pass
+/// that missed spikes side by side, 3 false bursts of one second each).
+#[test]
+fn clean_spiky_axes_rarely_get_a_suggestion() {
+    let set = settings(36, GRID, 30_000);
+    let flagged: Vec<String> = par_map(&set, 2, |s| {
+        let axes = clean_spiky(s, SPIKES).into_iter().zip(fdavar::signal::Axis::ALL);
+        axes.filter(|(names, _)| !names.is_empty())
+            .map(|(names, axis)| format!("{} Hz seed {} {axis}: {names:?}", s.rate, s.seed))
+            .collect::<Vec<_>>()
+    })
+    .concat();
+    println!("clean spiky axes with a suggestion: {}/{}: {flagged:#?}", flagged.len(), 6 * set.len());
+    assert!(flagged.len() * 50 <= 6 * set.len(), "{flagged:#?}");
 }

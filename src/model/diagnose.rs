@@ -258,7 +258,7 @@ fn weigh_once(
                 if !timedomain::has_evidence(kind, input) {
                     continue;
                 }
-                let Ok(est) = timedomain::estimate(kind, input, &series, None) else {
+                let Ok(est) = timedomain::estimate(kind, input, &series, None, fourth_cumulant) else {
                     continue;
                 };
                 let Some(screen) =
@@ -921,7 +921,11 @@ fn time_test<'a>(
         }
         Signature::WhiteLevel => {
             let blocks = series.len() / timedomain::block_len(input.tau0);
-            let factor = w.noise().burst_dof_factor() * timedomain::tail_factor(series, input.tau0, fourth_cumulant);
+            // On the series the search read: without its isolated spikes where it has them, and
+            // with the tails that are left.
+            let searched = timedomain::without_spikes(series, input.tau0, fourth_cumulant);
+            let left = if fourth_cumulant > 0.0 { white_fourth_cumulant(&searched) } else { 0.0 };
+            let factor = w.noise().burst_dof_factor() * timedomain::tail_factor(&searched, input.tau0, left);
             let statistic = est.strength / factor;
             let threshold = burst_threshold(blocks);
             plain(Test {

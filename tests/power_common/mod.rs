@@ -534,14 +534,63 @@ pub fn run(s: &Setting, hidden: &Hidden) -> Outcome {
 
 /// [`run`] on a recording that lost messages.
 pub fn run_losing(s: &Setting, hidden: &Hidden, loss: Option<LostMessages>) -> Outcome {
-    run_on(s, hidden, loss, None)
+    run_on(s, hidden, &Sensor { loss, ..Sensor::default() })
 }
 
 /// [`run`] on a sensor whose white noise passes a first-order low-pass of cut-off
 /// `cutoff_per_rate`·rate on every axis the recording holds. Detected: the effect named first, or
 /// second with the low-pass (`bandwidth`) first and weighed beside it (`Suggestion::given`).
 pub fn run_low_pass(s: &Setting, hidden: &Hidden, cutoff_per_rate: f64) -> Outcome {
-    run_on(s, hidden, None, Some(cutoff_per_rate))
+    run_on(s, hidden, &Sensor { cutoff_per_rate: Some(cutoff_per_rate), ..Sensor::default() })
+}
+
+/// [`run`] on a sensor whose samples carry isolated spikes on every axis the recording holds.
+pub fn run_spiky(s: &Setting, hidden: &Hidden, spikes: Spikes) -> Outcome {
+    run_on(s, hidden, &Sensor { spikes: Some(spikes), ..Sensor::default() })
+}
+
+/// What the sensor does beyond the setting's base noise, on every axis of a recording.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Sensor {
+    /// Messages lost (the simulator's `lost_messages:`).
+    pub loss: Option<LostMessages>,
+    /// A first-order low-pass of the white noise, its cut-off over the rate.
+    pub cutoff_per_rate: Option<f64>,
+    /// Isolated spikes added to the samples after simulation.
+    pub spikes: Option<Spikes>,
+}
+
+/// Isolated spikes: one sample in `1/share` moved by ±`size` times the white noise's σ per sample
+/// (a bus glitch or a knock; a real XSens MTi-G gyro reads an excess kurtosis of 117, docs/model.md
+/// "Heavy tails").
+#[derive(Debug, Clone, Copy)]
+pub struct Spikes {
+    /// Share of the samples that carry a spike.
+    pub share: f64,
+    /// Size of a spike in units of the white noise's σ per sample.
+    pub size: f64,
+}
+
+impl Spikes {
+    /// Adds spikes to `axis` (σ per sample measured from its differences, √2 σ), drawn from a
+    /// stream of `seed`; returns the excess kurtosis they give unit Gaussian noise,
+    /// s⁴·p(1 − 3p)/(1 + p·s²)² at the share p actually drawn.
+    pub fn add(&self, axis: &mut [f64], seed: u64) -> f64 {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let n = axis.len() as f64;
+        let finite = axis.windows(2).filter(|w| w[0].is_finite() && w[1].is_finite());
+        let (sum, count) = finite.fold((0.0, 0usize), |(s, c), w| (s + (w[1] - w[0]).powi(2), c + 1));
+        let sigma = (sum / (2.0 * count.max(1) as f64)).sqrt();
+        let mut spikes = 0usize;
+        for v in axis.iter_mut() {
+            if rng.random::<f64>() < self.share {
+                *v += self.size * sigma * random_sign(&mut rng);
+                spikes += 1;
+            }
+        }
+        let (p, size) = (spikes as f64 / n, self.size);
+        size.powi(4) * p * (1.0 - 3.0 * p) / (1.0 + p * size * size).powi(2)
+    }
 }
 
 /// The sensor's low-pass on `axis` in the setting: white noise of the mix's N through a
@@ -551,18 +600,29 @@ fn low_pass(s: &Setting, axis: Axis, cutoff_per_rate: f64) -> Bandwidth {
     Bandwidth::new(n, cutoff_per_rate * s.rate).unwrap()
 }
 
-fn run_on(s: &Setting, hidden: &Hidden, loss: Option<LostMessages>, cutoff_per_rate: Option<f64>) -> Outcome {
+/// The recording of `spec_yaml`'s setting as `sensor` gives it.
+fn record_by(s: &Setting, yaml: &str, sensor: &Sensor) -> Recording {
+    let mut rec = record_losing(yaml, sensor.loss);
+    if let Some(spikes) = sensor.spikes {
+        for (k, axis) in rec.axes.iter_mut().enumerate() {
+            spikes.add(axis, s.seed ^ (0x5b1c_e000 + k as u64));
+        }
+    }
+    rec
+}
+
+fn run_on(s: &Setting, hidden: &Hidden, sensor: &Sensor) -> Outcome {
     let mut axes = vec![hidden.axis];
     if hidden.motion.is_some() {
         axes.extend([Axis::AccelX, Axis::AccelY, Axis::AccelZ].into_iter().filter(|a| *a != hidden.axis));
     }
     let motion: Vec<(Axis, &dyn Effect)> = hidden.motion.iter().map(|(a, e)| (*a, e.as_ref())).collect();
     let filters: Vec<(Axis, Bandwidth)> =
-        cutoff_per_rate.map_or(Vec::new(), |r| axes.iter().map(|&a| (a, low_pass(s, a, r))).collect());
+        sensor.cutoff_per_rate.map_or(Vec::new(), |r| axes.iter().map(|&a| (a, low_pass(s, a, r))).collect());
     let mut extra = vec![(hidden.axis, hidden.effect.as_ref())];
     extra.extend(hidden.beside.iter().map(|e| (hidden.axis, e.as_ref())));
     extra.extend(filters.iter().map(|(a, f)| (*a, f as &dyn Effect)));
-    let rec = record_losing(&spec_yaml(s, &axes, &extra, &motion), loss);
+    let rec = record_by(s, &spec_yaml(s, &axes, &extra, &motion), sensor);
     let start = hidden.beside.iter().fold("N,B,K".to_string(), |m, e| format!("{m},{}", e.kind().id()));
     let start = ModelSpec::parse_in(&start, REGISTRY).unwrap();
     let d = diagnose(&rec.input(hidden.axis), &start, REGISTRY, &FitOptions::default()).unwrap();
@@ -622,20 +682,25 @@ pub fn clean(s: &Setting) -> Vec<Vec<String>> {
 
 /// [`clean`] on a recording that lost messages.
 pub fn clean_losing(s: &Setting, loss: Option<LostMessages>) -> Vec<Vec<String>> {
-    clean_on(s, loss, None)
+    clean_on(s, &Sensor { loss, ..Sensor::default() })
 }
 
 /// [`clean`] of a sensor with a low-pass of cut-off `cutoff_per_rate`·rate on every axis (see
 /// [`run_low_pass`]): each axis's suggestions, `bandwidth` first when it is named.
 pub fn clean_low_pass(s: &Setting, cutoff_per_rate: f64) -> Vec<Vec<String>> {
-    clean_on(s, None, Some(cutoff_per_rate))
+    clean_on(s, &Sensor { cutoff_per_rate: Some(cutoff_per_rate), ..Sensor::default() })
 }
 
-fn clean_on(s: &Setting, loss: Option<LostMessages>, cutoff_per_rate: Option<f64>) -> Vec<Vec<String>> {
+/// [`clean`] of a sensor whose samples carry isolated spikes (see [`run_spiky`]).
+pub fn clean_spiky(s: &Setting, spikes: Spikes) -> Vec<Vec<String>> {
+    clean_on(s, &Sensor { spikes: Some(spikes), ..Sensor::default() })
+}
+
+fn clean_on(s: &Setting, sensor: &Sensor) -> Vec<Vec<String>> {
     let filters: Vec<(Axis, Bandwidth)> =
-        cutoff_per_rate.map_or(Vec::new(), |r| Axis::ALL.iter().map(|&a| (a, low_pass(s, a, r))).collect());
+        sensor.cutoff_per_rate.map_or(Vec::new(), |r| Axis::ALL.iter().map(|&a| (a, low_pass(s, a, r))).collect());
     let extra: Vec<(Axis, &dyn Effect)> = filters.iter().map(|(a, f)| (*a, f as &dyn Effect)).collect();
-    let rec = record_losing(&spec_yaml(s, &Axis::ALL, &extra, &[]), loss);
+    let rec = record_by(s, &spec_yaml(s, &Axis::ALL, &extra, &[]), sensor);
     let nbk = ModelSpec::parse_in("N,B,K", REGISTRY).unwrap();
     Axis::ALL
         .iter()

@@ -68,6 +68,7 @@ impl TimeEstimator for StepSearch {
         input: &AxisInput<'_>,
         series: &[f64],
         noise: Option<&NoiseSpectrum>,
+        _fourth_cumulant: f64,
     ) -> Result<Estimate, FitError> {
         let (i, size, strength) = find_step(series);
         // With the base noise known, the size again by GLS on the whole record at that time.

@@ -75,6 +75,7 @@ impl TimeEstimator for OnAccel {
         input: &AxisInput<'_>,
         series: &[f64],
         noise: Option<&NoiseSpectrum>,
+        _fourth_cumulant: f64,
     ) -> Result<Estimate, FitError> {
         let acc = input.accel.filter(|_| input.axis.is_gyro()).ok_or_else(|| {
             FitError::MissingEvidence {

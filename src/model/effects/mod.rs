@@ -352,7 +352,8 @@ pub trait EffectKind: Sync {
 pub trait TimeEstimator: Sync {
     /// Estimates the effect on `series` (the axis's rate, earlier effects removed): by generalised
     /// least squares against `noise` when the base noise is known, else by a first guess that
-    /// needs none.
+    /// needs none. `fourth_cumulant`: the record's white fourth cumulant, 0 when Gaussian
+    /// ([`crate::model::timedomain::estimate`]).
     ///
     /// # Errors
     /// [`FitError`] when the series cannot carry an estimate.
@@ -361,6 +362,7 @@ pub trait TimeEstimator: Sync {
         input: &AxisInput<'_>,
         series: &[f64],
         noise: Option<&NoiseSpectrum>,
+        fourth_cumulant: f64,
     ) -> Result<Estimate, FitError>;
     /// Removes the effect given by its values in schema order from `series`.
     fn remove(&self, values: &[f64], input: &AxisInput<'_>, series: &mut [f64]);

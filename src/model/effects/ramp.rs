@@ -62,6 +62,7 @@ impl TimeEstimator for Trend {
         input: &AxisInput<'_>,
         series: &[f64],
         noise: Option<&NoiseSpectrum>,
+        _fourth_cumulant: f64,
     ) -> Result<Estimate, FitError> {
         let gls = noise.and_then(|n| timedomain::trend(series, n));
         let (r, sigma) = match gls {

@@ -65,6 +65,7 @@ impl TimeEstimator for OnTemperature {
         input: &AxisInput<'_>,
         series: &[f64],
         noise: Option<&NoiseSpectrum>,
+        _fourth_cumulant: f64,
     ) -> Result<Estimate, FitError> {
         let t = input.temperature_c.ok_or_else(|| FitError::MissingEvidence {
             axis: input.axis.name(),

@@ -179,10 +179,11 @@ pub fn prepare(
             params: vec![("start_s".into(), s.start_s), ("end_s".into(), s.end_s)],
         })
         .collect();
+    let fourth_cumulant = opts.fourth_cumulant.unwrap_or_else(|| white_fourth_cumulant(input.rate));
     let order = timedomain::in_estimation_order(&time_kinds);
     let mut estimates = Vec::with_capacity(order.len());
     for &kind in &order {
-        let est = timedomain::estimate(kind, input, &series, None)?;
+        let est = timedomain::estimate(kind, input, &series, None, fourth_cumulant)?;
         timedomain::remove(kind, &est, input, series.to_mut());
         estimates.push(est);
     }
@@ -197,7 +198,7 @@ pub fn prepare(
             series = std::borrow::Cow::Borrowed(input.rate);
             for (&kind, est) in order.iter().zip(estimates.iter_mut()) {
                 if by_gls(est) {
-                    if let Ok(gls) = timedomain::estimate(kind, input, &series, Some(&noise)) {
+                    if let Ok(gls) = timedomain::estimate(kind, input, &series, Some(&noise), fourth_cumulant) {
                         *est = gls;
                     }
                 }
@@ -235,7 +236,7 @@ pub fn prepare(
             } else {
                 Vec::new()
             },
-            fourth_cumulant: opts.fourth_cumulant.unwrap_or_else(|| white_fourth_cumulant(input.rate)),
+            fourth_cumulant,
             ..SampleContext::of(input.rate)
         },
         spectral_kinds,

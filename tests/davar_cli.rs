@@ -473,3 +473,29 @@ fn out_draws_the_surface_and_window_trace_of_its_rows() {
         assert!(read(&figs) == read(&lib), "{name}: the CLI's figure differs from its rows'");
     }
 }
+
+/// A change event of one sample is a spike, and the summary says so: "a spike at 30.000 s (sample
+/// 3000)", not "noise changed from 30.000 s to 30.000 s" (a real XSens MTi-G gyro printed 35 of
+/// those); the seed's tripled span is still a change of the noise.
+#[test]
+fn a_one_sample_event_is_called_a_spike() {
+    let mut rng = ChaCha8Rng::seed_from_u64(12);
+    let mut f = tempfile::NamedTempFile::new().unwrap();
+    for k in 0..6000 {
+        let spike = if k == 3000 { 0.05 } else { 0.0 };
+        writeln!(f, "{:.9}", 1e-3 * rng.sample::<f64, _>(StandardNormal) + spike).unwrap();
+    }
+    let out = fdavar().args(["davar", f.path().to_str().unwrap(), "--rate", "100"]).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let spikes: Vec<&str> = text.lines().filter(|l| l.contains("a spike at")).collect();
+    assert_eq!(spikes.len(), 1, "{text}");
+    assert!(spikes[0].starts_with("  a spike at 30.000 s (sample 3000): one sample, level x"), "{text}");
+    assert!(!text.contains("noise changed"), "{text}");
+
+    let seed = seed_signal_file(false);
+    let params = concat!(env!("CARGO_MANIFEST_DIR"), "/launch_params/seed_2016.yaml");
+    let out = fdavar().args(["davar", seed.path().to_str().unwrap(), "--params", params]).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("  noise changed from ") && !text.contains("a spike"), "{text}");
+}

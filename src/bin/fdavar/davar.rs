@@ -384,16 +384,22 @@ pub fn write_summary(
         )?;
         for e in events.iter().filter(|e| e.axis == s.axis) {
             let e = &e.event;
-            writeln!(
-                w,
-                "  noise changed from {:.3} s to {:.3} s (samples {} .. {}), level x{:.2}{}",
-                e.start_s,
-                e.end_s,
-                e.start_index,
-                e.end_index,
-                e.factor,
-                if e.closed { "" } else { " (still open at the end)" }
-            )?;
+            let open = if e.closed { "" } else { " (still open at the end)" };
+            // One sample is no change of the noise: a glitch or a knock (a real XSens MTi-G's
+            // gyro gives dozens; docs/model.md, "Heavy tails").
+            if e.start_index == e.end_index {
+                writeln!(
+                    w,
+                    "  a spike at {:.3} s (sample {}): one sample, level x{:.2}{open}",
+                    e.start_s, e.start_index, e.factor
+                )?;
+            } else {
+                writeln!(
+                    w,
+                    "  noise changed from {:.3} s to {:.3} s (samples {} .. {}), level x{:.2}{open}",
+                    e.start_s, e.end_s, e.start_index, e.end_index, e.factor
+                )?;
+            }
         }
     }
     Ok(())

@@ -37,6 +37,9 @@ pub struct WholeRun {
     pub coefficients: Vec<Coefficient>,
     /// fit_error (docs/design.md §5).
     pub fit_error: f64,
+    /// The white rate noise's excess kurtosis where it is heavier-tailed than Gaussian, else 0
+    /// ([`FittedModel::rate_excess_kurtosis`]).
+    pub rate_excess_kurtosis: f64,
     /// Maximal τ intervals where |z| > 3.
     pub failing_tau: Vec<TauInterval>,
     /// Maximal time spans where the model fails.
@@ -60,6 +63,7 @@ impl WholeRun {
                 .flat_map(|t| t.params.iter().map(|p| coefficient(&t.effect, p)))
                 .collect(),
             fit_error: f.fit_error,
+            rate_excess_kurtosis: f.rate_excess_kurtosis,
             failing_tau: f
                 .failing_tau
                 .iter()
@@ -102,6 +106,7 @@ impl WholeRun {
         s.model.clone_from(&self.model);
         s.coefficients.clone_from(&self.coefficients);
         s.fit_error = self.fit_error;
+        s.rate_excess_kurtosis = self.rate_excess_kurtosis;
         s.failing_tau.clone_from(&self.failing_tau);
         s.failing_spans.clone_from(&self.failing_spans);
         s.suggestions.clone_from(&self.suggestions);

@@ -1406,6 +1406,9 @@ fn whole_run_differences(live: &serde_json::Value, cli: &serde_json::Value) -> V
     };
     same("model", &live["model"], &cli["model"]);
     same("fit_error", &live["fit_error"], &cli["fit_error"]);
+    // The JSON has the key only where the noise is heavy-tailed; the message says 0 otherwise.
+    let kurtosis = cli.get("rate_excess_kurtosis").cloned().unwrap_or(serde_json::json!(0.0));
+    same("rate_excess_kurtosis", &live["rate_excess_kurtosis"], &kurtosis);
     same("failing_tau", &live["failing_tau"], &cli["failing_tau"]);
     same("failing_spans", &live["failing_spans"], &cli["failing_spans"]);
     // Coefficients: the message's list of {effect, name, value, sigma, unit} against the JSON's
@@ -1646,6 +1649,15 @@ fn live_equals_offline_on_a_recording_with_nan_a_gap_and_a_backwards_stamp() {
     // Issue 13: a value no sensor gives (left out like NaN), and the publisher restarting with
     // its clock 20 s back at sample 10 000 (dropped as backwards, re-anchored at the 50th).
     samples[4000].gyro[2] = 1e300;
+    // Isolated spikes on accel_z, one sample in 250 at ±30σ (excess kurtosis ≈ 150): the fit
+    // widens its EDFs for them, and the node says by how much, as `fdavar diagnose --json` does.
+    // At random samples with random signs: spikes at a fixed period would be a line.
+    let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(53);
+    for s in &mut samples {
+        if rand::Rng::random_bool(&mut rng, 1.0 / 250.0) {
+            s.accel[2] += if rand::Rng::random_bool(&mut rng, 0.5) { 0.03 } else { -0.03 };
+        }
+    }
     let unshifted: Vec<i64> = samples.iter().map(|s| s.stamp_ns).collect();
     for s in &mut samples[10_000..] {
         s.stamp_ns -= 20_000_000_000;
@@ -1668,6 +1680,9 @@ fn live_equals_offline_on_a_recording_with_nan_a_gap_and_a_backwards_stamp() {
         assert_eq!(s["samples"].as_u64(), Some(messages - 53), "{axis}");
         assert_eq!(s["gaps"].as_u64(), Some(5), "{axis}");
         assert_eq!(s["drops"].as_u64(), Some(0), "{axis}");
+        // The spikes' kurtosis on accel_z (equal to the offline one: compared above), none elsewhere.
+        let kurtosis = s["rate_excess_kurtosis"].as_f64().unwrap();
+        assert!(if axis == "accel_z" { kurtosis > 75.0 } else { kurtosis == 0.0 }, "{axis}: {kurtosis}");
     }
 }
 

@@ -176,6 +176,7 @@ fn axis_state_survives_a_cdr_round_trip() {
         model: vec!["white".into(), "sinusoid".into()],
         coefficients: vec![coefficient.clone()],
         fit_error: 1.1,
+        rate_excess_kurtosis: 116.6,
         failing_tau: vec![TauInterval {
             low_s: 0.3,
             high_s: 1.2,

@@ -46,6 +46,9 @@ pub struct AxisState {
     pub coefficients: Vec<Coefficient>,
     /// RMS normalised residual over the τ grid of the whole run and its spans (docs/design.md §5).
     pub fit_error: f64,
+    /// Excess kurtosis of the white rate noise where it is heavier-tailed than Gaussian (isolated
+    /// spikes), the fit's EDFs widened for it; 0 when Gaussian (docs/design.md §5).
+    pub rate_excess_kurtosis: f64,
     /// Maximal τ intervals where |z| > 3.
     pub failing_tau: Vec<TauInterval>,
     /// Maximal time spans where the model fails, seconds from the first sample.
@@ -96,6 +99,7 @@ impl Fields for AxisState {
         ("string[]", "model"),
         ("Coefficient[]", "coefficients"),
         ("float64", "fit_error"),
+        ("float64", "rate_excess_kurtosis"),
         ("TauInterval[]", "failing_tau"),
         ("TimeSpan[]", "failing_spans"),
         ("Suggestion[]", "suggestions"),

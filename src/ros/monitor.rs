@@ -815,6 +815,10 @@ impl Monitor {
                     KeyValue::new("fit_error", s.fit_error),
                     KeyValue::new("analysis_time_s", s.analysis_time_s),
                 ]);
+                // Only where the fit widened its intervals for heavy tails, as the JSON.
+                if s.rate_excess_kurtosis > 0.0 {
+                    values.push(KeyValue::new("rate_excess_kurtosis", s.rate_excess_kurtosis));
+                }
                 values.push(KeyValue::new("model", s.model.join(",")));
                 for coef in &s.coefficients {
                     values.push(KeyValue::new(
@@ -1434,8 +1438,11 @@ mod tests {
             } else {
                 Vec::new()
             };
+            // gyro_y's noise heavy-tailed: the fit widened its intervals for it.
+            let rate_excess_kurtosis = if axis == Axis::GyroY { 116.5 } else { 0.0 };
             Ok(WholeRun {
                 fit_error: 1.0,
+                rate_excess_kurtosis,
                 suggestions,
                 ..WholeRun::default()
             })
@@ -1474,6 +1481,9 @@ mod tests {
         assert!(last.status[0].message.contains("sinusoid"));
         assert_eq!(level(last, 1), Level::Ok as u8);
         assert_eq!(value(last, 1, "suggestions"), "");
+        // The kurtosis where the noise is heavy-tailed (gyro_y), and no key where it is Gaussian.
+        assert_eq!(value(last, 1, "rate_excess_kurtosis"), "116.5");
+        assert!(!last.status[0].values.iter().any(|kv| kv.key == "rate_excess_kurtosis"), "{:?}", last.status[0]);
         // Period 0: off, and the whole-run answers are cleared.
         m.set_settings(MonitorSettings {
             diagnosis_period_s: 0.0,

@@ -1426,7 +1426,8 @@ const SPIKE_SCALE_SAMPLES: usize = 256;
 /// σ_r is the local one, so that a louder span (a burst) keeps its samples.
 ///
 /// Why: the statistics of sample-to-sample differences ([`find_burst`], [`tail_factor`]) are sums
-/// of squares, and one spike of 30σ adds as much to its one-second block as 4.5 blocks of noise. In
+/// of squares, and one spike of 30σ adds to its one-second block (two differences of 30σ, 1 800σ²)
+/// as much as nine blocks of noise at 100 Hz (100 differences of 2σ² each). In
 /// such a record (one sample in 2 000 at ±30σ; a real XSens MTi-G gyro reads an excess kurtosis
 /// of 117) the burst search found spikes and its test, widened for them, missed every burst of the
 /// stated-visibility test (0 of 20, docs/model.md "Heavy tails"). Used only where the record is

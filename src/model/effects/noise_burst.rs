@@ -55,9 +55,10 @@ pub(super) static KIND: Extended<WithEstimator> =
 /// left over does not pass for a louder span; a step barely touches them, which is why this
 /// search runs last among the ranked estimators (after the regressions and the step). The base
 /// noise is not used. In a heavy-tailed record (`fourth_cumulant` > 0) it reads the record without
-/// its isolated spikes ([`without_spikes`]): one spike of 30σ adds to its block as much as 4.5 blocks
-/// of noise, and the search found spikes instead of bursts. Removing the burst scales its span's fast part down by the factor around a
-/// 30 s moving mean, which keeps the slow part (a drift, a random walk) for the Allan fit.
+/// its isolated spikes ([`without_spikes`]): one spike of 30σ adds to its block as much as nine
+/// blocks of noise at 100 Hz, and the search found spikes instead of bursts. Removing the burst
+/// scales its span's fast part down by the factor around a 30 s moving mean, which keeps the slow
+/// part (a drift, a random walk) for the Allan fit.
 ///
 /// # Formula
 /// ```text

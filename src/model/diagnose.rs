@@ -921,11 +921,17 @@ fn time_test<'a>(
         }
         Signature::WhiteLevel => {
             let blocks = series.len() / timedomain::block_len(input.tau0);
-            // On the series the search read: without its isolated spikes where it has them, and
-            // with the tails that are left.
+            // On the series the search read: without its isolated spikes where it has them, with
+            // the tails that are left, and at least as much as its block variances scatter.
             let searched = timedomain::without_spikes(series, input.tau0, fourth_cumulant);
-            let left = if fourth_cumulant > 0.0 { white_fourth_cumulant(&searched) } else { 0.0 };
-            let factor = w.noise().burst_dof_factor() * timedomain::tail_factor(&searched, input.tau0, left);
+            let factor = match fourth_cumulant > 0.0 {
+                true => {
+                    let left = white_fourth_cumulant(&searched);
+                    let expected = w.noise().burst_dof_factor() * timedomain::tail_factor(&searched, input.tau0, left);
+                    expected.max(timedomain::block_dispersion_factor(&searched, input.tau0))
+                }
+                false => w.noise().burst_dof_factor() * timedomain::tail_factor(series, input.tau0, 0.0),
+            };
             let statistic = est.strength / factor;
             let threshold = burst_threshold(blocks);
             plain(Test {

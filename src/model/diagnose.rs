@@ -923,9 +923,9 @@ fn time_test<'a>(
             let blocks = series.len() / timedomain::block_len(input.tau0);
             // On the series the search read: without its isolated spikes where it has them, with
             // the tails that are left, and at least as much as its block variances scatter.
-            let searched = timedomain::without_spikes(series, input.tau0, fourth_cumulant);
             let factor = match fourth_cumulant > 0.0 {
                 true => {
+                    let searched = timedomain::despiked(series, input.tau0);
                     let left = white_fourth_cumulant(&searched);
                     let expected = w.noise().burst_dof_factor() * timedomain::tail_factor(&searched, input.tau0, left);
                     expected.max(timedomain::block_dispersion_factor(&searched, input.tau0))

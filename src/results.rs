@@ -37,6 +37,8 @@ pub struct WholeRun {
     pub coefficients: Vec<Coefficient>,
     /// fit_error (docs/design.md §5).
     pub fit_error: f64,
+    /// span_fit_error ([`FittedModel::span_fit_error`]).
+    pub span_fit_error: f64,
     /// The white rate noise's excess kurtosis where it is heavier-tailed than Gaussian, else 0
     /// ([`FittedModel::rate_excess_kurtosis`]).
     pub rate_excess_kurtosis: f64,
@@ -63,6 +65,7 @@ impl WholeRun {
                 .flat_map(|t| t.params.iter().map(|p| coefficient(&t.effect, p)))
                 .collect(),
             fit_error: f.fit_error,
+            span_fit_error: f.span_fit_error,
             rate_excess_kurtosis: f.rate_excess_kurtosis,
             failing_tau: f
                 .failing_tau
@@ -93,6 +96,7 @@ impl WholeRun {
                     effect: s.effect.clone(),
                     params: s.params.iter().map(|p| coefficient(&s.effect, p)).collect(),
                     fit_error_after: s.fit_error_after,
+                    span_fit_error_after: s.span_fit_error_after,
                     explanation: s.explanation.clone(),
                     given: s.given.clone(),
                 })
@@ -106,6 +110,7 @@ impl WholeRun {
         s.model.clone_from(&self.model);
         s.coefficients.clone_from(&self.coefficients);
         s.fit_error = self.fit_error;
+        s.span_fit_error = self.span_fit_error;
         s.rate_excess_kurtosis = self.rate_excess_kurtosis;
         s.failing_tau.clone_from(&self.failing_tau);
         s.failing_spans.clone_from(&self.failing_spans);
@@ -141,6 +146,7 @@ pub fn axis_state(row: &AxisRow, tau0: f64) -> AxisState {
             })
             .collect(),
         fit_error: f64::NAN,
+        span_fit_error: f64::NAN,
         ..AxisState::default()
     }
 }

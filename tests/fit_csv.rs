@@ -115,7 +115,7 @@ fn csv_holds_the_fits_curve_model_and_z() {
         // The whole-record fit_error is the RMS of the CSV's z.
         let zs: Vec<f64> = rows.iter().map(|r| r[7]).collect();
         let rms = (zs.iter().map(|z| z * z).sum::<f64>() / zs.len() as f64).sqrt();
-        assert!((rms - fit.whole_fit_error).abs() <= 1e-12 * fit.whole_fit_error, "{}: {rms} vs {}", fit.axis, fit.whole_fit_error);
+        assert!((rms - fit.fit_error).abs() <= 1e-12 * fit.fit_error, "{}: {rms} vs {}", fit.axis, fit.fit_error);
     }
 }
 

@@ -106,7 +106,7 @@ fn adis16405_gyro_is_white_noise_through_its_low_pass() {
             let what = format!("{} over {}-{} s", axis.name(), part.start / 100, part.end / 100);
             let d = diagnose(&input(axis, rate), &base, REGISTRY, &opts).unwrap();
             let names: Vec<&str> = d.suggestions.iter().map(|s| s.effect.as_str()).collect();
-            println!("{what}: N,B,K fit_error {:.2}, suggestions {names:?}", d.fit.fit_error);
+            println!("{what}: N,B,K fit_error {:.2}, suggestions {names:?}", d.fit.misfit());
             assert_eq!(names.first(), Some(&"bandwidth"), "{what}");
             let f = fit(&input(axis, rate), &spec, REGISTRY, &opts).unwrap();
             let bw = f.term("bandwidth").unwrap();
@@ -116,11 +116,11 @@ fn adis16405_gyro_is_white_noise_through_its_low_pass() {
             println!(
                 "{what}: B,K,bandwidth fit_error {:.2} (whole record {:.2}), ARW {arw:.2} deg/sqrt(h), \
                  cut-off {fc:.1} Hz, green points within 1 sigma {:.0} %",
+                f.misfit(),
                 f.fit_error,
-                f.whole_fit_error,
                 100.0 * share
             );
-            assert!(f.fit_error <= 2.0, "{what}: fit_error {}", f.fit_error);
+            assert!(f.misfit() <= 2.0, "{what}: fit_error {}", f.misfit());
             assert!((1.5..=3.0).contains(&arw), "{what}: ARW {arw}");
             assert!(CUTOFF_HZ.contains(&fc), "{what}: cut-off {fc}");
             // The share within 1σ is asserted on the first hour only: neighbouring τ points of one
@@ -145,8 +145,8 @@ fn adis16405_gyro_z_is_the_low_pass_and_a_21_hz_line() {
     let arw = arw_deg_per_sqrt_h(bw.param("n").unwrap().value);
     let fc = bw.param("cutoff_hz").unwrap().value;
     let line = f.term("sinusoid").unwrap().param("frequency_hz").unwrap().value;
-    println!("gyro_z: fit_error {:.2}, ARW {arw:.2} deg/sqrt(h), cut-off {fc:.1} Hz, line {line:.2} Hz", f.fit_error);
-    assert!(f.fit_error <= 2.0, "fit_error {}", f.fit_error);
+    println!("gyro_z: fit_error {:.2}, ARW {arw:.2} deg/sqrt(h), cut-off {fc:.1} Hz, line {line:.2} Hz", f.misfit());
+    assert!(f.misfit() <= 2.0, "fit_error {}", f.misfit());
     assert!((1.5..=3.0).contains(&arw), "ARW {arw}");
     assert!(CUTOFF_HZ.contains(&fc), "cut-off {fc}");
     assert!((20.0..=22.0).contains(&line), "line {line}");
@@ -177,7 +177,7 @@ fn adis16405_accel_is_the_low_pass_and_a_0_56_hz_line() {
     for (axis, rate) in accel_axes(&cols) {
         let d = diagnose(&input(axis, rate), &base, REGISTRY, &opts).unwrap();
         let names: Vec<&str> = d.suggestions.iter().map(|s| s.effect.as_str()).collect();
-        println!("{}: N,B,K fit_error {:.2}, suggestions {names:?}", axis.name(), d.fit.fit_error);
+        println!("{}: N,B,K fit_error {:.2}, suggestions {names:?}", axis.name(), d.fit.misfit());
         assert!(names.contains(&"bandwidth") && names.contains(&"sinusoid"), "{}: {names:?}", axis.name());
         // A second line is weighed only beside a first (`EffectKind::follows`): never from N,B,K.
         assert!(d.weighed.iter().all(|w| w.effect != "vibration"), "{}: {names:?}", axis.name());
@@ -196,17 +196,17 @@ fn adis16405_accel_is_the_low_pass_and_a_0_56_hz_line() {
             "{}: B,K,bandwidth,sinusoid fit_error {:.2} (whole record {:.2}), n {:.3} mg/sqrt(Hz), \
              cut-off {fc:.1} Hz, line {line:.3} Hz, green points within 1 sigma {:.0} %",
             axis.name(),
+            f.misfit(),
             f.fit_error,
-            f.whole_fit_error,
             n / 9.80665e-3,
             100.0 * share
         );
         assert!((0.5 * DATASHEET_N..=2.0 * DATASHEET_N).contains(&n), "{}: n {n}", axis.name());
         assert!(CUTOFF_HZ.contains(&fc), "{}: cut-off {fc}", axis.name());
         assert!((0.50..=0.65).contains(&line), "{}: line {line}", axis.name());
-        assert!(3.0 * f.fit_error <= d.fit.fit_error, "{}: {} -> {}", axis.name(), d.fit.fit_error, f.fit_error);
+        assert!(3.0 * f.misfit() <= d.fit.misfit(), "{}: {} -> {}", axis.name(), d.fit.misfit(), f.misfit());
         if axis == Axis::AccelZ {
-            assert!(f.whole_fit_error <= 2.0, "accel_z whole-record fit_error {}", f.whole_fit_error);
+            assert!(f.fit_error <= 2.0, "accel_z whole-record fit_error {}", f.fit_error);
             assert!(share >= 0.6, "accel_z: {share}");
         }
     }
@@ -241,8 +241,8 @@ fn adis16405_accel_is_two_lines_and_a_louder_second_half() {
             "{}: {spec} fit_error {:.2} (whole record {:.2}), n {:.3} mg/sqrt(Hz), cut-off {fc:.1} Hz, \
              lines {:.3} Hz and {:.3} Hz, burst {:.0}-{:.0} s x{:.3}, green points within 1 sigma {:.0} %",
             axis.name(),
+            f.misfit(),
             f.fit_error,
-            f.whole_fit_error,
             n / 9.80665e-3,
             lines[0],
             lines[1],
@@ -251,7 +251,7 @@ fn adis16405_accel_is_two_lines_and_a_louder_second_half() {
             burst[2],
             100.0 * green_within_one_sigma(&f)
         );
-        assert!(f.whole_fit_error <= 2.0, "{}: whole-record fit_error {}", axis.name(), f.whole_fit_error);
+        assert!(f.fit_error <= 2.0, "{}: whole-record fit_error {}", axis.name(), f.fit_error);
         assert!((0.5 * DATASHEET_N..=2.0 * DATASHEET_N).contains(&n), "{}: n {n}", axis.name());
         assert!(CUTOFF_HZ.contains(&fc), "{}: cut-off {fc}", axis.name());
         assert!(lines.iter().any(|f| (0.50..=0.65).contains(f)), "{}: lines {lines:?}", axis.name());
@@ -265,7 +265,7 @@ fn adis16405_accel_is_two_lines_and_a_louder_second_half() {
         assert_eq!(names.first(), Some(&first), "{}", axis.name());
         assert!(names.contains(&"vibration"), "{}: {names:?}", axis.name());
         assert!(lines.iter().any(|f| (9.5..=11.0).contains(f)), "{}: lines {lines:?}", axis.name());
-        assert!(f.fit_error <= 3.5, "{}: fit_error {}", axis.name(), f.fit_error);
+        assert!(f.misfit() <= 3.5, "{}: fit_error {}", axis.name(), f.misfit());
         if axis == Axis::AccelY {
             assert!((2000.0..=2300.0).contains(&burst[0]) && burst[1] >= 3500.0, "accel_y burst {burst:?}");
             assert!((1.05..=1.25).contains(&burst[2]), "accel_y burst factor {}", burst[2]);
@@ -296,7 +296,7 @@ fn adis16405_accel_fits_where_no_event_disturbs_it() {
         let rate = &col[last.clone()];
         let d = diagnose(&input(axis, rate), &base, REGISTRY, &opts).unwrap();
         let names: Vec<&str> = d.suggestions.iter().map(|s| s.effect.as_str()).collect();
-        let after = d.suggestions.last().map_or(d.fit.fit_error, |s| s.fit_error_after);
+        let after = d.suggestions.last().map_or(d.fit.misfit(), |s| s.misfit_after());
         let param = |id: &str, name: &str| {
             let s = d.suggestions.iter().find(|s| s.effect == id)?;
             s.params.iter().find(|p| p.name == name).map(|p| p.value)
@@ -307,7 +307,7 @@ fn adis16405_accel_fits_where_no_event_disturbs_it() {
             "{} over 7200-10000 s: N,B,K fit_error {:.2}, suggestions {names:?}, fit_error after {after:.2}, \
              n {:?} mg/sqrt(Hz), cut-off {fc:?} Hz, lines {lines:?} Hz",
             axis.name(),
-            d.fit.fit_error,
+            d.fit.misfit(),
             n.map(|n| n / 9.80665e-3)
         );
         assert!(names.contains(&"sinusoid") && names.contains(&"bandwidth"), "{}: {names:?}", axis.name());
@@ -319,7 +319,7 @@ fn adis16405_accel_fits_where_no_event_disturbs_it() {
         let spec = ModelSpec::parse(&format!("N,B,K,{}", names.join(","))).unwrap();
         let f = fit(&input(axis, rate), &spec, REGISTRY, &opts).unwrap();
         let share = green_within_one_sigma(&f);
-        println!("{}: {spec} fit_error {:.2}, green points within 1 sigma {:.0} %", axis.name(), f.fit_error, 100.0 * share);
+        println!("{}: {spec} fit_error {:.2}, green points within 1 sigma {:.0} %", axis.name(), f.misfit(), 100.0 * share);
         if axis != Axis::AccelZ {
             assert!((9.5..=11.0).contains(&lines[1].unwrap_or(0.0)), "{}: lines {lines:?}", axis.name());
         }
@@ -329,5 +329,55 @@ fn adis16405_accel_fits_where_no_event_disturbs_it() {
             assert!(after <= 2.0, "{}: fit_error {after}", axis.name());
             assert!(share >= 0.6, "{}: {share}", axis.name());
         }
+    }
+}
+
+/// Issue 10, Done 2, on the whole recording (10 000 s, none of it left out): on every axis the
+/// diagnosis of N,B,K ends at a model that fits — fit_error (the contract's: the whole record's τ
+/// grid) ≤ 2 after its last suggestion — with physical parameters: the low-pass named on every
+/// axis, its noise density near the data sheet's (gyro ARW 1.5–3 °/√h for about 2; accel within a
+/// factor 2 of 0.5 mg/√Hz) and its cut-off near the default filter's 68 Hz ([`CUTOFF_HZ`]); where
+/// z is green, the curve within the points' 1σ on at least half of them.
+///
+/// Measured 2026-11-29 (`cargo test --release --test real_adis16405 -- --nocapture`): fit_error
+/// 1.60 / 0.99 / 1.89 / 1.92 / 1.09 / 1.99 (gyro x, y, z, accel x, y, z), green points within 1σ
+/// 56 / 76 / 73 / 84 / 68 / 62 %. Why half and not the 68 % a right model gives on average:
+/// neighbouring τ of one record share their noise, so their z move together and one record's
+/// share scatters widely (45–96 % over the six one-hour gyro parts above, each fitting). What does not hold is
+/// printed, not hidden: span_fit_error stays 1.27 / 1.22 / 3.12 / 4.19 / 3.12 / 3.22 — the record
+/// is not stationary in time (gyro_z's line moves from 21 Hz to 20 Hz after the first hour; the
+/// accel biases leave and come back together at 2 153 s and 6 820 s; docs/model-measurements.md),
+/// which no stationary model mends and the diagnosis says (its warning, `failing_spans`).
+#[test]
+fn adis16405_every_axis_fits_with_its_diagnosed_model_over_the_whole_recording() {
+    let Some(path) = recording() else { return };
+    let cols = read(&path, ALL);
+    assert_eq!(cols[0].len(), ALL, "rows of the recording");
+    let opts = FitOptions::default();
+    let base = ModelSpec::parse("N,B,K").unwrap();
+    for (axis, col) in Axis::ALL.into_iter().zip(&cols) {
+        let d = diagnose(&input(axis, col), &base, REGISTRY, &opts).unwrap();
+        let names: Vec<&str> = d.suggestions.iter().map(|s| s.effect.as_str()).collect();
+        // The refit with every suggestion: the diagnosed model.
+        let f = d.after.last().unwrap_or(&d.fit);
+        let bw = f.term("bandwidth").unwrap_or_else(|| panic!("{axis}: no low-pass in {names:?}"));
+        let (n, fc) = (bw.param("n").unwrap().value, bw.param("cutoff_hz").unwrap().value);
+        let share = green_within_one_sigma(f);
+        println!(
+            "{axis}: N,B,K + {names:?}: fit_error {:.2}, span_fit_error {:.2}, n {n:.4e}, cut-off {fc:.1} Hz, \
+             green points within 1 sigma {:.0} %",
+            f.fit_error,
+            f.span_fit_error,
+            100.0 * share
+        );
+        assert!(f.fit_error <= 2.0, "{axis}: fit_error {} with {names:?}", f.fit_error);
+        if axis.is_gyro() {
+            let arw = arw_deg_per_sqrt_h(n);
+            assert!((1.5..=3.0).contains(&arw), "{axis}: ARW {arw}");
+        } else {
+            assert!((0.5 * DATASHEET_N..=2.0 * DATASHEET_N).contains(&n), "{axis}: n {n}");
+        }
+        assert!(CUTOFF_HZ.contains(&fc), "{axis}: cut-off {fc}");
+        assert!(share >= 0.5, "{axis}: green points within 1 sigma {share}");
     }
 }

@@ -127,7 +127,7 @@ fn model(measured: &[MeasuredPoint], terms: &[AvarTerm]) -> ModelCurves {
         z,
         failing_tau,
         fit_error,
-        whole_fit_error: None,
+        span_fit_error: None,
         spans: Vec::new(),
         failing_spans: Vec::new(),
     }
@@ -454,14 +454,14 @@ fn spans(failing: &[usize]) -> Vec<SpanScore> {
 fn a_span_panel_shows_when_in_the_record_the_model_fails() {
     let (_keep, dir) = out_dir();
     let mut fig = allan_figure();
-    fig.model.whole_fit_error = Some(fig.model.fit_error - 1.0);
+    fig.model.span_fit_error = Some(fig.model.fit_error + 1.0);
     fig.model.spans = spans(&[]);
     let passing = write_allan(&fig, &dir.join("allan_spans_passing")).unwrap();
-    let whole = format!("(whole record {:.2})", fig.model.fit_error - 1.0);
+    let in_time = format!("(in time {:.2})", fig.model.fit_error + 1.0);
     check_written(
         &passing,
         (1200, 1150),
-        &["time of the span [s]", "span fit error (− quieter)", "fit error of a span", &whole],
+        &["time of the span [s]", "span fit error (− quieter)", "fit error of a span", &in_time],
     );
     // Spans 3 and 4 overlap: one shaded range (as the fit merges them); span 10 another.
     fig.model.spans = spans(&[3, 4, 10]);
@@ -469,10 +469,10 @@ fn a_span_panel_shows_when_in_the_record_the_model_fails() {
     let failing = write_allan(&fig, &dir.join("allan_spans_failing")).unwrap();
     let svg = |paths: &[PathBuf]| std::fs::read_to_string(&paths[1]).unwrap();
     assert_eq!(shaded(&svg(&failing)) - shaded(&svg(&passing)), 2);
-    // The whole record's error is said only when the spans raised fit_error above it.
-    fig.model.whole_fit_error = Some(fig.model.fit_error);
+    // The spans' error is said only when it is above fit_error.
+    fig.model.span_fit_error = Some(fig.model.fit_error);
     let same = write_allan(&fig, &dir.join("allan_spans_same")).unwrap();
-    assert!(!svg(&same).contains("whole record"));
+    assert!(!svg(&same).contains("in time"));
     // Without spans, no panel: the figure keeps its height.
     fig.model.spans.clear();
     assert_eq!(png_size(&write_allan(&fig, &dir.join("allan_no_spans")).unwrap()[0]), (1200, 900));
@@ -832,7 +832,7 @@ proptest! {
                 z: taus.iter().zip(z.iter().cycle()).map(|(&t, &z)| (t, z)).collect(),
                 failing_tau: taus.iter().map(|&t| (t, t)).collect(),
                 fit_error: 1.0,
-                whole_fit_error: z.first().copied(),
+                span_fit_error: z.first().copied(),
                 spans: z.windows(3).map(|w| SpanScore { start_s: w[0], end_s: w[1], fit_error: w[2], louder: w[0] < w[2] }).collect(),
                 failing_spans: z.windows(2).map(|w| (w[0], w[1])).collect(),
             },
@@ -873,7 +873,7 @@ proptest! {
                 z: measured.iter().zip(z.iter().cycle()).map(|(p, &z)| (p.tau, z)).collect(),
                 failing_tau: vec![],
                 fit_error: 1.0,
-                whole_fit_error: Some(0.5),
+                span_fit_error: Some(0.5),
                 // A span of at least 10⁻⁶ of its start's magnitude: a linear axis resolves it.
                 spans: spans
                     .iter()

@@ -176,6 +176,7 @@ fn axis_state_survives_a_cdr_round_trip() {
         model: vec!["white".into(), "sinusoid".into()],
         coefficients: vec![coefficient.clone()],
         fit_error: 1.1,
+        span_fit_error: 3.4,
         rate_excess_kurtosis: 116.6,
         failing_tau: vec![TauInterval {
             low_s: 0.3,
@@ -189,6 +190,7 @@ fn axis_state_survives_a_cdr_round_trip() {
             effect: "sinusoid".into(),
             params: vec![coefficient],
             fit_error_after: 0.9,
+            span_fit_error_after: 1.2,
             explanation: "a periodic disturbance".into(),
             given: vec!["bandwidth".into()],
         }],

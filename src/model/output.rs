@@ -1,9 +1,9 @@
 //! The JSON of `fdavar fit` / `fdavar diagnose` (docs/design.md §7, **contract**) and the figures' data.
 //!
-//! `{"axes": [{"axis", "model": [names], "fit_error", "coefficients": {effect: {param: P}},
+//! `{"axes": [{"axis", "model": [names], "fit_error", "span_fit_error", "coefficients": {effect: {param: P}},
 //! "failing_tau": [[lo, hi]], "failing_spans": [[start_s, end_s]], "events": [{"effect",
 //! ...params}], "suggestions": [{"effect", "params": {param: P}, "fit_error_after",
-//! "explanation"}]}]}`, where every parameter P is `{"value", "sigma", "unit"}` ([`param_json`]);
+//! "span_fit_error_after", "explanation"}]}]}`, where every parameter P is `{"value", "sigma", "unit"}` ([`param_json`]);
 //! `fit` omits `suggestions`; `"rate_excess_kurtosis"` appears on an axis with heavy-tailed noise. Values are SI. Plain data, built from a [`FittedModel`] /
 //! [`Diagnosis`]; no I/O here.
 
@@ -27,8 +27,11 @@ pub struct AxisReport {
     pub axis: String,
     /// Effect ids of the model.
     pub model: Vec<String>,
-    /// **contract** fit_error.
+    /// **contract** fit_error: the whole record's τ grid.
     pub fit_error: f64,
+    /// The spans' pooled RMS of z ([`FittedModel::span_fit_error`]): where in time the model
+    /// holds (beyond the contract).
+    pub span_fit_error: f64,
     /// effect → parameter → `{"value", "sigma", "unit"}` ([`param_json`]).
     pub coefficients: Map<String, Value>,
     /// **contract** failing τ intervals, seconds.
@@ -98,6 +101,7 @@ impl AxisReport {
             axis: fit.axis.name().to_string(),
             model: fit.spec.ids().to_vec(),
             fit_error: fit.fit_error,
+            span_fit_error: fit.span_fit_error,
             coefficients,
             failing_tau: fit.failing_tau.clone(),
             failing_spans: fit
@@ -122,6 +126,7 @@ impl AxisReport {
                     m.insert("effect".into(), Value::String(s.effect.clone()));
                     m.insert("params".into(), params_json(&s.params));
                     m.insert("fit_error_after".into(), number(s.fit_error_after));
+                    m.insert("span_fit_error_after".into(), number(s.span_fit_error_after));
                     m.insert("explanation".into(), Value::String(s.explanation.clone()));
                     m.insert("given".into(), s.given.iter().cloned().map(Value::String).collect());
                     m
@@ -172,7 +177,7 @@ pub fn model_curves(fit: &FittedModel) -> ModelCurves {
         z: fit.points.iter().map(|p| (p.tau, p.z)).collect(),
         failing_tau: fit.failing_tau.iter().map(|r| (r[0], r[1])).collect(),
         fit_error: fit.fit_error,
-        whole_fit_error: Some(fit.whole_fit_error),
+        span_fit_error: Some(fit.span_fit_error),
         spans: fit
             .spans
             .iter()

@@ -44,8 +44,10 @@ pub struct AxisState {
     pub model: Vec<String>,
     /// Its coefficients fitted to the whole run, with 1σ.
     pub coefficients: Vec<Coefficient>,
-    /// RMS normalised residual over the τ grid of the whole run and its spans (docs/design.md §5).
+    /// RMS normalised residual over the τ grid of the whole run (docs/design.md §5).
     pub fit_error: f64,
+    /// The same over the τ grids of the run's spans pooled: whether the model holds in time.
+    pub span_fit_error: f64,
     /// Excess kurtosis of the white rate noise where it is heavier-tailed than Gaussian (isolated
     /// spikes), the fit's EDFs widened for it; 0 when Gaussian (docs/design.md §5).
     pub rate_excess_kurtosis: f64,
@@ -99,6 +101,7 @@ impl Fields for AxisState {
         ("string[]", "model"),
         ("Coefficient[]", "coefficients"),
         ("float64", "fit_error"),
+        ("float64", "span_fit_error"),
         ("float64", "rate_excess_kurtosis"),
         ("TauInterval[]", "failing_tau"),
         ("TimeSpan[]", "failing_spans"),
@@ -246,6 +249,8 @@ pub struct Suggestion {
     pub params: Vec<Coefficient>,
     /// fit_error once the effect is added (with `given`).
     pub fit_error_after: f64,
+    /// span_fit_error once the effect is added (with `given`).
+    pub span_fit_error_after: f64,
     /// One plain sentence of physics.
     pub explanation: String,
     /// The effects added before this one was weighed (empty for the first suggestion).
@@ -269,6 +274,7 @@ impl Fields for Suggestion {
         ("string", "effect"),
         ("Coefficient[]", "params"),
         ("float64", "fit_error_after"),
+        ("float64", "span_fit_error_after"),
         ("string", "explanation"),
         ("string[]", "given"),
     ];

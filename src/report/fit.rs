@@ -86,13 +86,18 @@ fn display_text(effect: &str, p: &ParamValue, first: bool, axis: &str) -> String
 /// Writes the readable table of one fitted axis: model and fit_error, each parameter with its
 /// unit, where the model fails in τ and in time, and the located events.
 ///
-/// `failing` is the fit_error above which the model is reported as failing; when it fails but
-/// no τ fails, the line says that the failure is in time.
+/// `failing` is the misfit ([`FittedModel::misfit`]) above which the model is reported as
+/// failing; when it fails but no τ fails, the line says that the failure is in time.
 ///
 /// # Errors
 /// Those of `w`.
 pub fn write_fit(w: &mut dyn Write, f: &FittedModel, failing: f64) -> std::io::Result<()> {
-    writeln!(w, "{}  model {}  fit_error {:.2}", f.axis, f.spec, f.fit_error)?;
+    write!(w, "{}  model {}  fit_error {:.2}", f.axis, f.spec, f.fit_error)?;
+    if f.spans.is_empty() {
+        writeln!(w)?;
+    } else {
+        writeln!(w, "  span_fit_error {:.2}", f.span_fit_error)?;
+    }
     for t in &f.terms {
         for (i, p) in t.params.iter().enumerate() {
             writeln!(
@@ -106,12 +111,12 @@ pub fn write_fit(w: &mut dyn Write, f: &FittedModel, failing: f64) -> std::io::R
         }
     }
     if f.failing_tau.is_empty() {
-        if f.fit_error > failing {
-            // The whole-record curve fits; the spans do not (FittedModel::fit_error).
+        if f.misfit() > failing {
+            // The whole-record curve fits; the spans do not (FittedModel::span_fit_error).
             writeln!(
                 w,
-                "  failing tau: none (the whole-record curve fits: fit_error {:.2}); the failure is in time: {}",
-                f.whole_fit_error,
+                "  failing tau: none (the whole-record curve fits); the failure is in time (span_fit_error {:.2}): {}",
+                f.span_fit_error,
                 if f.failing_spans.is_empty() {
                     "the record's spans together, none alone above 3"
                 } else {
@@ -141,9 +146,9 @@ pub fn write_fit(w: &mut dyn Write, f: &FittedModel, failing: f64) -> std::io::R
             .collect();
         writeln!(
             w,
-            "  failing in time: {} (whole record alone: fit_error {:.2})",
+            "  failing in time: {} (span_fit_error {:.2})",
             spans.join("; "),
-            f.whole_fit_error
+            f.span_fit_error
         )?;
     }
     if f.rate_excess_kurtosis > 0.0 {
@@ -178,9 +183,15 @@ pub fn write_suggestions(w: &mut dyn Write, d: &Diagnosis) -> std::io::Result<()
         let ps: Vec<String> =
             s.params.iter().map(|p| format!("{} = {}", p.name, param_text(p))).collect();
         let given = if s.given.is_empty() { String::new() } else { format!(" with {}", s.given.join(" and ")) };
+        // 0: the record was not checked on spans.
+        let in_time = if s.span_fit_error_after > 0.0 {
+            format!(", span_fit_error {:.2}", s.span_fit_error_after)
+        } else {
+            String::new()
+        };
         writeln!(
             w,
-            "  suggestion {}: add {}{given} ({}) -> fit_error {:.2}\n    {}",
+            "  suggestion {}: add {}{given} ({}) -> fit_error {:.2}{in_time}\n    {}",
             i + 1,
             s.effect,
             ps.join(", "),

@@ -237,7 +237,7 @@ pub struct Counters {
 pub struct MonitorSettings {
     /// No IMU for longer than this (seconds of node time) means stale input: ERROR.
     pub stale_timeout_s: f64,
-    /// fit_error above this is a failing model: WARN.
+    /// fit_error or span_fit_error above this is a failing model (over τ or in time): WARN.
     pub fit_error_warn: f64,
     /// Seconds of node time between two diagnoses of each axis (0: no diagnosis).
     pub diagnosis_period_s: f64,
@@ -813,6 +813,7 @@ impl Monitor {
                     KeyValue::new("f_value", s.f_value),
                     KeyValue::new("f_reference", s.f_reference),
                     KeyValue::new("fit_error", s.fit_error),
+                    KeyValue::new("span_fit_error", s.span_fit_error),
                     KeyValue::new("analysis_time_s", s.analysis_time_s),
                 ]);
                 // Only where the fit widened its intervals for heavy tails, as the JSON.
@@ -848,6 +849,16 @@ impl Monitor {
                         format!(
                             "model fails over the whole run: fit_error {:.2}; suggestions: [{}]",
                             s.fit_error,
+                            suggestions.join(", ")
+                        ),
+                    )
+                } else if s.span_fit_error > self.settings.fit_error_warn {
+                    (
+                        Level::Warn,
+                        format!(
+                            "model fails in time: span_fit_error {:.2} (spans {}); suggestions: [{}]",
+                            s.span_fit_error,
+                            spans.join(","),
                             suggestions.join(", ")
                         ),
                     )

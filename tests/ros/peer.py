@@ -613,10 +613,12 @@ def whole_run_fields(state):
         "model": list(state.model),
         "coefficients": coefficients(state.coefficients),
         "fit_error": finite(state.fit_error),
+        "span_fit_error": finite(state.span_fit_error),
         "rate_excess_kurtosis": finite(state.rate_excess_kurtosis),
         "failing_tau": [[t.low_s, t.high_s] for t in state.failing_tau],
         "failing_spans": [[t.start_s, t.end_s] for t in state.failing_spans],
         "suggestions": [{"effect": x.effect, "fit_error_after": finite(x.fit_error_after),
+                         "span_fit_error_after": finite(x.span_fit_error_after),
                          "params": coefficients(x.params), "given": list(x.given)}
                         for x in state.suggestions],
         "diagnosed_messages": state.diagnosed_messages,

@@ -38,7 +38,7 @@ const CHUNKS_IN_FLIGHT: usize = 16;
 /// Reads the bag once. Prints per axis the rows' summary (count, time span, window range) and
 /// change events as `fdavar davar` does, then the fit and the suggestions as `fdavar diagnose`
 /// does (the same numbers). Axes run in parallel on --jobs threads. A failing model
-/// (fit_error > 2) is a warning, exit 0 (exit 3 with --strict); samples left out (gaps, bad
+/// (fit_error or span_fit_error > 2) is a warning, exit 0 (exit 3 with --strict); samples left out (gaps, bad
 /// stamps, NaN/Inf) exit 3.
 #[derive(Debug, clap::Args, PartialEq)]
 pub struct Args {
@@ -61,7 +61,7 @@ pub struct Args {
     /// object `fdavar diagnose --json` prints, member for member).
     #[arg(long)]
     pub json: bool,
-    /// Exit 3 when a model fails (fit_error > 2), for CI.
+    /// Exit 3 when a model fails (fit_error or span_fit_error > 2), for CI.
     #[arg(long)]
     pub strict: bool,
     /// Threads for the axes (default: the number of CPUs), at least 1.

@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 /// with their evidence: a temperature topic, the accel axes, a noise change) and suggests the
 /// gains that pay for their extra parameters, best first, with the fitted parameters and a
 /// sentence of physics. A model that already explains the data gets no suggestion.
-/// A failing model (fit_error > 2) is the finding: a warning, exit 0 (exit 3 with --strict);
+/// A failing model (fit_error or span_fit_error > 2) is the finding: a warning, exit 0 (exit 3 with --strict);
 /// samples left out (gaps, bad stamps, NaN/Inf) exit 3.
 ///
 /// Several recordings (a fleet of robots' bags: `fdavar diagnose a.mcap b.mcap …`, or a directory

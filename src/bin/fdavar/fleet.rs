@@ -125,7 +125,7 @@ pub fn run(args: &Args, bags: &[PathBuf], jobs: usize) -> anyhow::Result<Outcome
         match &d.result {
             Ok((diagnoses, left_out, description)) => {
                 axes_done += diagnoses.len();
-                failing += diagnoses.iter().filter(|x| x.fit.fit_error > FAILING_FIT_ERROR).count();
+                failing += diagnoses.iter().filter(|x| x.fit.misfit() > FAILING_FIT_ERROR).count();
                 suggested += diagnoses.iter().filter(|x| !x.suggestions.is_empty()).count();
                 if *left_out > 0 {
                     eprintln!("fdavar: warning: {}: {description}", d.bag.display());
@@ -136,7 +136,7 @@ pub fn run(args: &Args, bags: &[PathBuf], jobs: usize) -> anyhow::Result<Outcome
         }
     }
     eprintln!(
-        "fdavar: {} recordings, {} diagnosed: {failing} of {axes_done} axes with a failing model (fit_error > {FAILING_FIT_ERROR}), {suggested} with a suggestion; samples left out in {} recordings",
+        "fdavar: {} recordings, {} diagnosed: {failing} of {axes_done} axes with a failing model (fit_error or span_fit_error > {FAILING_FIT_ERROR}), {suggested} with a suggestion; samples left out in {} recordings",
         done.len(),
         done.len() - broken.len(),
         irregular.len()
@@ -161,7 +161,13 @@ fn table(done: &[Diagnosed]) -> Table {
             Ok((diagnoses, left_out, _)) => {
                 let note = if *left_out > 0 { format!("{left_out} samples left out") } else { String::new() };
                 for x in diagnoses {
-                    let fails = if x.fit.fit_error > FAILING_FIT_ERROR { " FAILS" } else { "" };
+                    let fails = if x.fit.fit_error > FAILING_FIT_ERROR {
+                        " FAILS"
+                    } else if x.fit.misfit() > FAILING_FIT_ERROR {
+                        " FAILS in time"
+                    } else {
+                        ""
+                    };
                     let model: Vec<&str> = x.fit.terms.iter().map(|t| t.alias.as_deref().unwrap_or(&t.effect)).collect();
                     let (suggestion, after) = x
                         .suggestions

@@ -66,7 +66,7 @@ pub fn model_spec_arg(s: &str) -> Result<String, SpecError> {
                   --params value outside its bounds)\n  \
                   3  finished with warnings: samples left out (gaps, duplicate or backward\n     \
                   stamps, NaN/Inf), the warning line on stderr says how many; or --strict and\n     \
-                  a model fails (fit_error > 2)\n\
+                  a model fails (fit_error or span_fit_error > 2)\n\
                   Axes: gyro_x gyro_y gyro_z (rad/s), accel_x accel_y accel_z (m/s^2)."
 )]
 struct Cli {

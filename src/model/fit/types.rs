@@ -239,17 +239,22 @@ pub struct FittedModel {
     pub terms: Vec<FittedTerm>,
     /// Measurement and model on the τ grid.
     pub points: Vec<FitPoint>,
-    /// **contract**: RMS of z over the τ grid — the larger of the whole record's
-    /// ([`FittedModel::whole_fit_error`]) and that over the τ grids of all the spans together
-    /// ([`FittedModel::spans`]).
-    ///
-    /// Why the spans pooled and not the worst one: the points of one span share one noise
-    /// realisation, so a span's RMS is about |N(0,1)| of a few modes and the worst of fifteen
-    /// is often 2 on a clean record; pooled, a clean record stays near 1 (median 1.05, max 1.41
-    /// measured on 72 clean axes) while a burst, a step or a warm-up still lifts it 3–60×.
+    /// **contract**: RMS of z over the τ grid of the whole record's Allan variance (DESIGN.md §5):
+    /// how well the model explains the measured curve.
     pub fit_error: f64,
-    /// RMS of z over the τ grid of the whole-record Allan variance alone.
-    pub whole_fit_error: f64,
+    /// RMS of z over the τ grids of all the spans together ([`FittedModel::spans`]), each span's
+    /// Allan variance against the whole-record model: how well the model holds in time (0 when
+    /// the record was not checked on spans).
+    ///
+    /// Why apart from `fit_error`: a burst, a bias step or a warm-up hardly changes the
+    /// whole-record Allan variance (it averages over time), but inside its span the stationary
+    /// model fails by far; the contract's number says whether the curve is explained, this one
+    /// whether the record is stationary. Why the spans pooled and not the worst one: the points
+    /// of one span share one noise realisation, so a span's RMS is about |N(0,1)| of a few modes
+    /// and the worst of fifteen is often 2 on a clean record; pooled, a clean record stays near 1
+    /// (median 1.05, max 1.41 measured on 72 clean axes) while a burst, a step or a warm-up still
+    /// lifts it 3–60×.
+    pub span_fit_error: f64,
     /// Excess kurtosis of the white rate noise (0: not measurably above Gaussian). When above,
     /// isolated spikes make every Allan estimate scatter more than Gaussian noise would, and the
     /// EDF of each point is widened for it ([`crate::allan::edf::edf_with_fourth_cumulant`]).
@@ -270,6 +275,13 @@ pub struct FittedModel {
 }
 
 impl FittedModel {
+    /// The larger of [`FittedModel::fit_error`] and [`FittedModel::span_fit_error`]: the model
+    /// fails when it is above 2, over τ or in time, and it is what the diagnosis's suggestions
+    /// must lower ([`crate::model::diagnose()`]).
+    pub fn misfit(&self) -> f64 {
+        self.fit_error.max(self.span_fit_error)
+    }
+
     /// The term of effect `id`.
     pub fn term(&self, id: &str) -> Option<&FittedTerm> {
         self.terms.iter().find(|t| t.effect == id)

@@ -87,13 +87,13 @@ pub struct ModelCurves {
     pub z: Vec<(f64, f64)>,
     /// Maximal τ intervals \[lo, hi\] (seconds) where |z| > 3.
     pub failing_tau: Vec<(f64, f64)>,
-    /// RMS of z over the τ grid (≈ 1 when the model explains the measurement); with `spans`, the
-    /// larger of the whole record's and the spans' pooled RMS, as the fit reports it.
+    /// RMS of z over the τ grid (≈ 1 when the model explains the measurement): the contract's
+    /// fit_error.
     pub fit_error: f64,
-    /// RMS of z over the whole record's τ grid alone, when `fit_error` also weighs the spans;
-    /// `None` without a time-resolved check.
+    /// RMS of z over the spans' τ grids pooled (the fit's `span_fit_error`: how well the model
+    /// holds in time); `None` without a time-resolved check.
     #[serde(default)]
-    pub whole_fit_error: Option<f64>,
+    pub span_fit_error: Option<f64>,
     /// Each span's check, in time order; empty: no time-resolved check, and no span panel.
     ///
     /// Why a panel of its own: a model can pass through every point of the whole-record curve
@@ -236,7 +236,7 @@ fn validate_model(which: &str, m: &ModelCurves) -> Result<(), ReportError> {
     check_finite(FIGURE, &f("z.z"), m.z.iter().map(|p| p.1))?;
     check_intervals(FIGURE, &f("failing_tau"), &m.failing_tau, true)?;
     check_finite(FIGURE, &f("fit_error"), [m.fit_error])?;
-    check_finite(FIGURE, &f("whole_fit_error"), m.whole_fit_error)?;
+    check_finite(FIGURE, &f("span_fit_error"), m.span_fit_error)?;
     let times: Vec<(f64, f64)> = m.spans.iter().map(|s| (s.start_s, s.end_s)).collect();
     check_intervals(FIGURE, &f("spans.start_s/end_s"), &times, false)?;
     let errors = m.spans.iter().map(|s| s.fit_error);
@@ -360,16 +360,16 @@ impl<'a> Panels<'a> {
     ) -> Drawn {
         // τ of the measured grid, for padding shaded spans by half a grid step.
         let grid: Vec<f64> = measured.iter().map(|p| p.tau).collect();
-        // The whole record's own error beside fit_error when the spans made fit_error larger.
-        let whole = match model.whole_fit_error {
-            Some(whole) if !model.spans.is_empty() && model.fit_error - whole > 0.005 => {
-                format!(" (whole record {whole:.2})")
+        // The spans' error beside fit_error when the model holds worse in time than over τ.
+        let in_time = match model.span_fit_error {
+            Some(spans) if !model.spans.is_empty() && spans - model.fit_error > 0.005 => {
+                format!(" (in time {spans:.2})")
             }
             _ => String::new(),
         };
-        let caption = format!("{heading} — fit error {:.2}{whole}", model.fit_error);
+        let caption = format!("{heading} — fit error {:.2}{in_time}", model.fit_error);
         let (w, h) = area.dim_in_pixel();
-        // A long caption (a model of many terms, the whole record's error) shrinks to its column
+        // A long caption (a model of many terms, the spans' error) shrinks to its column
         // instead of running into the next one: about 0.55 em per character.
         let caption_size = (19.0_f64).min((w as f64 - 20.0) / (0.55 * caption.chars().count() as f64)).max(13.0);
         let (top, bottom) = area.split_vertically(h * if self.time_range.is_some() { 54 } else { 66 } / 100);

@@ -1451,8 +1451,11 @@ mod tests {
             };
             // gyro_y's noise heavy-tailed: the fit widened its intervals for it.
             let rate_excess_kurtosis = if axis == Axis::GyroY { 116.5 } else { 0.0 };
+            // gyro_z's whole-run curve fits, its spans do not: a model failing in time.
+            let span_fit_error = if axis == Axis::GyroZ { 5.0 } else { 1.2 };
             Ok(WholeRun {
                 fit_error: 1.0,
+                span_fit_error,
                 rate_excess_kurtosis,
                 suggestions,
                 ..WholeRun::default()
@@ -1495,6 +1498,12 @@ mod tests {
         // The kurtosis where the noise is heavy-tailed (gyro_y), and no key where it is Gaussian.
         assert_eq!(value(last, 1, "rate_excess_kurtosis"), "116.5");
         assert!(!last.status[0].values.iter().any(|kv| kv.key == "rate_excess_kurtosis"), "{:?}", last.status[0]);
+        // Failing in time only: WARN, and the message says so (the fit over τ is fine).
+        assert_eq!(value(last, 2, "fit_error"), "1");
+        assert_eq!(value(last, 2, "span_fit_error"), "5");
+        assert_eq!(level(last, 2), Level::Warn as u8, "{:?}", last.status[2]);
+        assert!(last.status[2].message.starts_with("model fails in time: span_fit_error 5.00"), "{}", last.status[2].message);
+        assert_eq!(value(last, 1, "span_fit_error"), "1.2");
         // Period 0: off, and the whole-run answers are cleared.
         m.set_settings(MonitorSettings {
             diagnosis_period_s: 0.0,

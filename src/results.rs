@@ -37,7 +37,8 @@ pub struct WholeRun {
     pub coefficients: Vec<Coefficient>,
     /// fit_error (docs/design.md §5).
     pub fit_error: f64,
-    /// span_fit_error ([`FittedModel::span_fit_error`]).
+    /// span_fit_error ([`FittedModel::span_fit_error`]); NaN when the run was too short to be
+    /// checked on spans.
     pub span_fit_error: f64,
     /// The white rate noise's excess kurtosis where it is heavier-tailed than Gaussian, else 0
     /// ([`FittedModel::rate_excess_kurtosis`]).
@@ -65,7 +66,7 @@ impl WholeRun {
                 .flat_map(|t| t.params.iter().map(|p| coefficient(&t.effect, p)))
                 .collect(),
             fit_error: f.fit_error,
-            span_fit_error: f.span_fit_error,
+            span_fit_error: f.span_fit_error.unwrap_or(f64::NAN),
             rate_excess_kurtosis: f.rate_excess_kurtosis,
             failing_tau: f
                 .failing_tau
@@ -96,7 +97,7 @@ impl WholeRun {
                     effect: s.effect.clone(),
                     params: s.params.iter().map(|p| coefficient(&s.effect, p)).collect(),
                     fit_error_after: s.fit_error_after,
-                    span_fit_error_after: s.span_fit_error_after,
+                    span_fit_error_after: s.span_fit_error_after.unwrap_or(f64::NAN),
                     explanation: s.explanation.clone(),
                     given: s.given.clone(),
                 })

@@ -172,3 +172,23 @@ fn a_failing_interval_says_whether_the_noise_there_is_louder_or_quieter() {
     assert!((1.5..3.0).contains(&ratio), "{line}");
     assert!(line.contains(" s (span_fit_error "), "{line}");
 }
+
+/// The header gives fit_error and, where the record was checked on spans, span_fit_error, the
+/// numbers of the JSON; a record too short for spans (3 s: no span holds a point of EDF ≥ 20 at
+/// τ beyond τ0) has no span_fit_error at all — not a 0 that would read as a perfect fit.
+#[test]
+fn the_header_gives_span_fit_error_only_where_the_spans_were_checked() {
+    let (text, json) = text_and_json(&["fit", SEED, "--model", "N,B,K", "--axis", "gyro_x"]);
+    let a = &json["axes"][0];
+    let (whole, spans) = (a["fit_error"].as_f64().unwrap(), a["span_fit_error"].as_f64().unwrap());
+    let head = block(&text, "gyro_x")[0];
+    assert!(head.ends_with(&format!("  fit_error {whole:.2}  span_fit_error {spans:.2}")), "{head}");
+    // The seed's tripled middle third: the curve fits, the spans do not.
+    assert!(whole < FAILING && spans > FAILING, "{whole} {spans}");
+
+    let (text, json) = text_and_json(&["fit", SEED, "--model", "N,B,K", "--axis", "gyro_x", "--first", "100"]);
+    let a = &json["axes"][0];
+    assert!(a.get("span_fit_error").is_none(), "{a}");
+    let head = block(&text, "gyro_x")[0];
+    assert!(head.ends_with(&format!("  fit_error {:.2}", a["fit_error"].as_f64().unwrap())), "{head}");
+}

@@ -127,7 +127,7 @@ fn run(c: &Case) {
     let before = fit(&input, &nbk, KINDS, &opts).unwrap();
     let after = fit(&input, &base.with(c.effect), KINDS, &opts).unwrap();
     println!(
-        "{label}: fit_error {:.2} -> {:.2}, span_fit_error {:.2} -> {:.2}",
+        "{label}: fit_error {:.2} -> {:.2}, span_fit_error {:.2?} -> {:.2?}",
         before.fit_error, after.fit_error, before.span_fit_error, after.span_fit_error
     );
     // A step, a burst or a warm-up hardly shows in the whole-record Allan variance; it shows in

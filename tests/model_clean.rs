@@ -18,7 +18,7 @@ fn clean_recordings_get_no_suggestion() {
             let d = diagnose(&rec.input(axis), &nbk, KINDS, &FitOptions::default()).unwrap();
             let names: Vec<&str> = d.suggestions.iter().map(|s| s.effect.as_str()).collect();
             assert!(names.is_empty(), "seed {seed} {axis}: {names:?}");
-            assert!(d.fit.misfit() <= 2.0, "seed {seed} {axis}: fit_error {}, span_fit_error {}", d.fit.fit_error, d.fit.span_fit_error);
+            assert!(d.fit.misfit() <= 2.0, "seed {seed} {axis}: fit_error {}, span_fit_error {:?}", d.fit.fit_error, d.fit.span_fit_error);
             // Gaussian noise: the EDFs are NIST's, and the JSON has no kurtosis key.
             assert_eq!(d.fit.rate_excess_kurtosis, 0.0, "seed {seed} {axis}");
             let json = serde_json::to_value(AxisReport::from_fit(&d.fit)).unwrap();
@@ -143,7 +143,7 @@ fn isolated_spikes_widen_the_intervals_and_make_no_suggestion() {
             let d = diagnose(&rec.input(axis), &nbk, KINDS, &FitOptions::default()).unwrap();
             let names: Vec<&str> = d.suggestions.iter().map(|s| s.effect.as_str()).collect();
             assert!(names.is_empty(), "seed {seed} {axis}: {names:?}");
-            assert!(d.fit.misfit() <= 2.0, "seed {seed} {axis}: fit_error {}, span_fit_error {}", d.fit.fit_error, d.fit.span_fit_error);
+            assert!(d.fit.misfit() <= 2.0, "seed {seed} {axis}: fit_error {}, span_fit_error {:?}", d.fit.fit_error, d.fit.span_fit_error);
             let kurtosis = d.fit.rate_excess_kurtosis;
             assert!((kurtosis / truth - 1.0).abs() < 0.2, "seed {seed} {axis}: excess kurtosis {kurtosis} vs {truth}");
             let json = serde_json::to_value(AxisReport::from_fit(&d.fit)).unwrap();

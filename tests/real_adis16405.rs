@@ -364,7 +364,7 @@ fn adis16405_every_axis_fits_with_its_diagnosed_model_over_the_whole_recording()
         let (n, fc) = (bw.param("n").unwrap().value, bw.param("cutoff_hz").unwrap().value);
         let share = green_within_one_sigma(f);
         println!(
-            "{axis}: N,B,K + {names:?}: fit_error {:.2}, span_fit_error {:.2}, n {n:.4e}, cut-off {fc:.1} Hz, \
+            "{axis}: N,B,K + {names:?}: fit_error {:.2}, span_fit_error {:.2?}, n {n:.4e}, cut-off {fc:.1} Hz, \
              green points within 1 sigma {:.0} %",
             f.fit_error,
             f.span_fit_error,

@@ -85,7 +85,7 @@ pub struct Suggestion {
     /// span_fit_error of the model with this effect added
     /// ([`FittedModel::span_fit_error`]): what a located effect (a burst, a step) lowers.
     #[serde(default)]
-    pub span_fit_error_after: f64,
+    pub span_fit_error_after: Option<f64>,
     /// The effect's sentence of physics with the numbers filled in.
     pub explanation: String,
     /// The evidence statistic (see [`Weighed::statistic`]).
@@ -103,7 +103,7 @@ impl Suggestion {
     /// The larger of `fit_error_after` and `span_fit_error_after` ([`FittedModel::misfit`] of
     /// the model with this effect): what the suggestions are ranked by and must lower.
     pub fn misfit_after(&self) -> f64 {
-        self.fit_error_after.max(self.span_fit_error_after)
+        self.span_fit_error_after.map_or(self.fit_error_after, |spans| self.fit_error_after.max(spans))
     }
 }
 
@@ -985,7 +985,7 @@ mod tests {
             effect: effect.to_string(),
             params,
             fit_error_after: 1.0,
-            span_fit_error_after: 0.0,
+            span_fit_error_after: None,
             explanation: String::new(),
             delta_chi2: 0.0,
             threshold: 0.0,

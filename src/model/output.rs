@@ -30,8 +30,9 @@ pub struct AxisReport {
     /// **contract** fit_error: the whole record's τ grid.
     pub fit_error: f64,
     /// The spans' pooled RMS of z ([`FittedModel::span_fit_error`]): where in time the model
-    /// holds (beyond the contract).
-    pub span_fit_error: f64,
+    /// holds (beyond the contract); absent when the record was too short to be checked on spans.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub span_fit_error: Option<f64>,
     /// effect → parameter → `{"value", "sigma", "unit"}` ([`param_json`]).
     pub coefficients: Map<String, Value>,
     /// **contract** failing τ intervals, seconds.
@@ -126,7 +127,9 @@ impl AxisReport {
                     m.insert("effect".into(), Value::String(s.effect.clone()));
                     m.insert("params".into(), params_json(&s.params));
                     m.insert("fit_error_after".into(), number(s.fit_error_after));
-                    m.insert("span_fit_error_after".into(), number(s.span_fit_error_after));
+                    if let Some(spans) = s.span_fit_error_after {
+                        m.insert("span_fit_error_after".into(), number(spans));
+                    }
                     m.insert("explanation".into(), Value::String(s.explanation.clone()));
                     m.insert("given".into(), s.given.iter().cloned().map(Value::String).collect());
                     m
@@ -177,7 +180,7 @@ pub fn model_curves(fit: &FittedModel) -> ModelCurves {
         z: fit.points.iter().map(|p| (p.tau, p.z)).collect(),
         failing_tau: fit.failing_tau.iter().map(|r| (r[0], r[1])).collect(),
         fit_error: fit.fit_error,
-        span_fit_error: Some(fit.span_fit_error),
+        span_fit_error: fit.span_fit_error,
         spans: fit
             .spans
             .iter()

@@ -46,7 +46,8 @@ pub struct AxisState {
     pub coefficients: Vec<Coefficient>,
     /// RMS normalised residual over the τ grid of the whole run (docs/design.md §5).
     pub fit_error: f64,
-    /// The same over the τ grids of the run's spans pooled: whether the model holds in time.
+    /// The same over the τ grids of the run's spans pooled: whether the model holds in time (NaN
+    /// while the run is too short to be checked on spans).
     pub span_fit_error: f64,
     /// Excess kurtosis of the white rate noise where it is heavier-tailed than Gaussian (isolated
     /// spikes), the fit's EDFs widened for it; 0 when Gaussian (docs/design.md §5).

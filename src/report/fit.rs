@@ -93,10 +93,9 @@ fn display_text(effect: &str, p: &ParamValue, first: bool, axis: &str) -> String
 /// Those of `w`.
 pub fn write_fit(w: &mut dyn Write, f: &FittedModel, failing: f64) -> std::io::Result<()> {
     write!(w, "{}  model {}  fit_error {:.2}", f.axis, f.spec, f.fit_error)?;
-    if f.spans.is_empty() {
-        writeln!(w)?;
-    } else {
-        writeln!(w, "  span_fit_error {:.2}", f.span_fit_error)?;
+    match f.span_fit_error {
+        Some(spans) => writeln!(w, "  span_fit_error {spans:.2}")?,
+        None => writeln!(w)?,
     }
     for t in &f.terms {
         for (i, p) in t.params.iter().enumerate() {
@@ -111,12 +110,11 @@ pub fn write_fit(w: &mut dyn Write, f: &FittedModel, failing: f64) -> std::io::R
         }
     }
     if f.failing_tau.is_empty() {
-        if f.misfit() > failing {
+        if let Some(spans) = f.span_fit_error.filter(|&s| s > failing) {
             // The whole-record curve fits; the spans do not (FittedModel::span_fit_error).
             writeln!(
                 w,
-                "  failing tau: none (the whole-record curve fits); the failure is in time (span_fit_error {:.2}): {}",
-                f.span_fit_error,
+                "  failing tau: none (the whole-record curve fits); the failure is in time (span_fit_error {spans:.2}): {}",
                 if f.failing_spans.is_empty() {
                     "the record's spans together, none alone above 3"
                 } else {
@@ -148,7 +146,7 @@ pub fn write_fit(w: &mut dyn Write, f: &FittedModel, failing: f64) -> std::io::R
             w,
             "  failing in time: {} (span_fit_error {:.2})",
             spans.join("; "),
-            f.span_fit_error
+            f.span_fit_error.unwrap_or(f64::NAN)
         )?;
     }
     if f.rate_excess_kurtosis > 0.0 {
@@ -183,12 +181,8 @@ pub fn write_suggestions(w: &mut dyn Write, d: &Diagnosis) -> std::io::Result<()
         let ps: Vec<String> =
             s.params.iter().map(|p| format!("{} = {}", p.name, param_text(p))).collect();
         let given = if s.given.is_empty() { String::new() } else { format!(" with {}", s.given.join(" and ")) };
-        // 0: the record was not checked on spans.
-        let in_time = if s.span_fit_error_after > 0.0 {
-            format!(", span_fit_error {:.2}", s.span_fit_error_after)
-        } else {
-            String::new()
-        };
+        // None: the record was too short to be checked on spans.
+        let in_time = s.span_fit_error_after.map_or(String::new(), |spans| format!(", span_fit_error {spans:.2}"));
         writeln!(
             w,
             "  suggestion {}: add {}{given} ({}) -> fit_error {:.2}{in_time}\n    {}",

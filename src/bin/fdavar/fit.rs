@@ -168,7 +168,7 @@ pub fn outcome(analysis: &Analysis, fits: &[FittedModel], strict: bool, hint: &s
         .filter(|f| f.misfit() > FAILING_FIT_ERROR)
         .map(|f| match f.fit_error > FAILING_FIT_ERROR {
             true => format!("{} ({:.2})", f.axis, f.fit_error),
-            false => format!("{} (in time: span_fit_error {:.2})", f.axis, f.span_fit_error),
+            false => format!("{} (in time: span_fit_error {:.2})", f.axis, f.misfit()),
         })
         .collect();
     if !failing.is_empty() {

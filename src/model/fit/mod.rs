@@ -291,7 +291,7 @@ impl Prepared {
         }
         let (spans, span_z): (Vec<SpanCheck>, Vec<Vec<f64>>) =
             self.spans.iter().map(|m| check_span(m, &sf)).unzip();
-        let span_fit_error = rms(&span_z.concat());
+        let span_fit_error = (!spans.is_empty()).then(|| rms(&span_z.concat()));
         let mut terms = self.time_terms.clone();
         terms.extend(sf.terms);
         for p in terms.iter_mut().flat_map(|t| t.params.iter_mut()) {

@@ -243,8 +243,8 @@ pub struct FittedModel {
     /// how well the model explains the measured curve.
     pub fit_error: f64,
     /// RMS of z over the τ grids of all the spans together ([`FittedModel::spans`]), each span's
-    /// Allan variance against the whole-record model: how well the model holds in time (0 when
-    /// the record was not checked on spans).
+    /// Allan variance against the whole-record model: how well the model holds in time (`None`
+    /// when the record was too short to be checked on spans).
     ///
     /// Why apart from `fit_error`: a burst, a bias step or a warm-up hardly changes the
     /// whole-record Allan variance (it averages over time), but inside its span the stationary
@@ -254,7 +254,7 @@ pub struct FittedModel {
     /// and the worst of fifteen is often 2 on a clean record; pooled, a clean record stays near 1
     /// (median 1.05, max 1.41 measured on 72 clean axes) while a burst, a step or a warm-up still
     /// lifts it 3–60×.
-    pub span_fit_error: f64,
+    pub span_fit_error: Option<f64>,
     /// Excess kurtosis of the white rate noise (0: not measurably above Gaussian). When above,
     /// isolated spikes make every Allan estimate scatter more than Gaussian noise would, and the
     /// EDF of each point is widened for it ([`crate::allan::edf::edf_with_fourth_cumulant`]).
@@ -279,7 +279,7 @@ impl FittedModel {
     /// fails when it is above 2, over τ or in time, and it is what the diagnosis's suggestions
     /// must lower ([`crate::model::diagnose()`]).
     pub fn misfit(&self) -> f64 {
-        self.fit_error.max(self.span_fit_error)
+        self.span_fit_error.map_or(self.fit_error, |spans| self.fit_error.max(spans))
     }
 
     /// The term of effect `id`.

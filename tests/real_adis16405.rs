@@ -69,6 +69,14 @@ fn read(path: &PathBuf, rows: usize) -> [Vec<f64>; 6] {
     cols
 }
 
+/// All the recording's rows (every column checked to hold them), or None after saying the test
+/// skips.
+fn whole_recording() -> Option<[Vec<f64>; 6]> {
+    let cols = read(&recording()?, ALL);
+    assert!(cols.iter().all(|c| c.len() == ALL), "rows of the recording");
+    Some(cols)
+}
+
 /// The accel axes of the recording's columns, with their names.
 fn accel_axes(cols: &[Vec<f64>; 6]) -> [(Axis, &[f64]); 3] {
     [(Axis::AccelX, &cols[3][..]), (Axis::AccelY, &cols[4][..]), (Axis::AccelZ, &cols[5][..])]
@@ -92,9 +100,7 @@ fn green_within_one_sigma(f: &FittedModel) -> f64 {
 
 #[test]
 fn adis16405_gyro_is_white_noise_through_its_low_pass() {
-    let Some(path) = recording() else { return };
-    let cols = read(&path, ALL);
-    assert_eq!(cols[0].len(), ALL, "rows of the recording");
+    let Some(cols) = whole_recording() else { return };
     let opts = FitOptions::default();
     let base = ModelSpec::parse("N,B,K").unwrap();
     let spec = ModelSpec::parse("B,K,bandwidth").unwrap();
@@ -286,9 +292,7 @@ fn adis16405_accel_is_two_lines_and_a_louder_second_half() {
 /// of one at 6 820–7 050 s: the vocabulary has no bias that leaves and comes back.
 #[test]
 fn adis16405_accel_fits_where_no_event_disturbs_it() {
-    let Some(path) = recording() else { return };
-    let cols = read(&path, ALL);
-    assert_eq!(cols[3].len(), ALL, "rows of the recording");
+    let Some(cols) = whole_recording() else { return };
     let last = 2 * SAMPLES..ALL;
     let opts = FitOptions::default();
     let base = ModelSpec::parse("N,B,K").unwrap();
@@ -350,9 +354,7 @@ fn adis16405_accel_fits_where_no_event_disturbs_it() {
 /// which no stationary model mends and the diagnosis says (its warning, `failing_spans`).
 #[test]
 fn adis16405_every_axis_fits_with_its_diagnosed_model_over_the_whole_recording() {
-    let Some(path) = recording() else { return };
-    let cols = read(&path, ALL);
-    assert_eq!(cols[0].len(), ALL, "rows of the recording");
+    let Some(cols) = whole_recording() else { return };
     let opts = FitOptions::default();
     let base = ModelSpec::parse("N,B,K").unwrap();
     for (axis, col) in Axis::ALL.into_iter().zip(&cols) {

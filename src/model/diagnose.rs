@@ -103,7 +103,7 @@ impl Suggestion {
     /// The larger of `fit_error_after` and `span_fit_error_after` ([`FittedModel::misfit`] of
     /// the model with this effect): what the suggestions are ranked by and must lower.
     pub fn misfit_after(&self) -> f64 {
-        self.span_fit_error_after.map_or(self.fit_error_after, |spans| self.fit_error_after.max(spans))
+        crate::model::fit::misfit(self.fit_error_after, self.span_fit_error_after)
     }
 }
 
@@ -225,9 +225,14 @@ pub fn diagnose_planned(
     Ok(first)
 }
 
+/// The kind of effect `id` in `registry`.
+fn kind_of(registry: &[&'static dyn EffectKind], id: &str) -> Option<&'static dyn EffectKind> {
+    registry.iter().copied().find(|k| k.id() == id)
+}
+
 /// Whether `id` is a spectral (stationary) effect of `registry`.
 fn spectral(registry: &[&'static dyn EffectKind], id: &str) -> bool {
-    registry.iter().any(|k| k.id() == id && k.domain() == Domain::Spectral)
+    kind_of(registry, id).is_some_and(|k| k.domain() == Domain::Spectral)
 }
 
 /// Most suggestions [`diagnose`] makes on one axis: rounds beyond stop.
@@ -437,7 +442,7 @@ fn best_first<T>(
     regressed: &[&str],
     lines: &LineEvidence,
 ) {
-    let kind = |s: &Suggestion| registry.iter().find(|k| k.id() == s.effect);
+    let kind = |s: &Suggestion| kind_of(registry, &s.effect);
     let driven = |s: &Suggestion| {
         regressed.contains(&s.effect.as_str())
             || kind(s).is_some_and(|k| matches!(k.evidence(), Evidence::Temperature | Evidence::Accel))
@@ -626,9 +631,7 @@ impl Scored for CurveFit {
 /// as [`NoiseClass::from_slope`] has it).
 fn class_of(term: &FittedTerm, registry: &[&'static dyn EffectKind]) -> NoiseClass {
     let values: Vec<f64> = term.params.iter().map(|p| p.value).collect();
-    let slope = registry
-        .iter()
-        .find(|k| k.id() == term.effect)
+    let slope = kind_of(registry, &term.effect)
         .and_then(|k| k.build(&values).ok())
         .and_then(|e| e.explain().avar_slope);
     NoiseClass::from_slope(slope)
@@ -664,7 +667,7 @@ fn one_drift_one_driver<T>(
     noise: &NoiseSpectrum,
 ) {
     let t2_of_shape = |s: &Suggestion| -> Option<f64> {
-        let kind = registry.iter().find(|k| k.id() == s.effect)?;
+        let kind = kind_of(registry, &s.effect)?;
         if kind.evidence() == Evidence::Accel {
             return None;
         }
@@ -718,9 +721,7 @@ fn spectrum_at_bound(
             if let (Some(v), Some(s)) = (values.first_mut(), t.params.first().and_then(|p| p.sigma)) {
                 *v = v.abs() + ParamValue::BOUND_SIGMAS * s;
             }
-            let curve = registry
-                .iter()
-                .find(|k| k.id() == t.effect)
+            let curve = kind_of(registry, &t.effect)
                 .and_then(|k| k.build(&values).ok())
                 .and_then(|e| taus.iter().map(|&tau| e.avar(tau)).collect::<Option<Vec<f64>>>())
                 .unwrap_or_else(|| t.curve.clone());
@@ -739,9 +740,9 @@ fn cleaned<'a>(
     // Copied only when there is something to remove: a whole-run record is large.
     let mut series = Cow::Borrowed(input.rate);
     for term in fit.terms.iter().filter(|t| t.domain == Domain::TimeDomain) {
-        if let Some(kind) = registry.iter().find(|k| k.id() == term.effect) {
+        if let Some(kind) = kind_of(registry, &term.effect) {
             let values: Vec<f64> = term.params.iter().map(|p| p.value).collect();
-            timedomain::remove_values(*kind, &values, input, series.to_mut());
+            timedomain::remove_values(kind, &values, input, series.to_mut());
         }
     }
     series

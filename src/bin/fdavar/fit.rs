@@ -12,6 +12,7 @@ use fdavar::bag::{BagMessage, BagReader};
 use fdavar::model::output::{allan_figure, AxisReport, Report};
 use fdavar::model::spec::axis_models;
 use fdavar::model::record::RecordBuilder;
+use fdavar::model::fit::Failing;
 use fdavar::model::{FittedModel, ModelSpec};
 use fdavar::pipeline::{AxisRow, DavarConfig, SigmaRefMode};
 use fdavar::report::fit::{allan_table, spans_table};
@@ -165,10 +166,9 @@ pub fn outcome(analysis: &Analysis, fits: &[FittedModel], strict: bool, hint: &s
     }
     let failing: Vec<String> = fits
         .iter()
-        .filter(|f| f.misfit() > FAILING_FIT_ERROR)
-        .map(|f| match f.fit_error > FAILING_FIT_ERROR {
-            true => format!("{} ({:.2})", f.axis, f.fit_error),
-            false => format!("{} (in time: span_fit_error {:.2})", f.axis, f.misfit()),
+        .filter_map(|f| match f.failing(FAILING_FIT_ERROR)? {
+            Failing::OverTau => Some(format!("{} ({:.2})", f.axis, f.fit_error)),
+            Failing::InTime => Some(format!("{} (in time: span_fit_error {:.2})", f.axis, f.misfit())),
         })
         .collect();
     if !failing.is_empty() {

@@ -11,6 +11,7 @@ use crate::fit::{load, print_json, Source, FAILING_FIT_ERROR};
 use crate::{Outcome, UsageError};
 use fdavar::analysis::on_threads;
 use fdavar::model::output::AxisReport;
+use fdavar::model::fit::Failing;
 use fdavar::model::Diagnosis;
 use fdavar::report::table::Table;
 use serde::Serialize;
@@ -125,7 +126,7 @@ pub fn run(args: &Args, bags: &[PathBuf], jobs: usize) -> anyhow::Result<Outcome
         match &d.result {
             Ok((diagnoses, left_out, description)) => {
                 axes_done += diagnoses.len();
-                failing += diagnoses.iter().filter(|x| x.fit.misfit() > FAILING_FIT_ERROR).count();
+                failing += diagnoses.iter().filter(|x| x.fit.failing(FAILING_FIT_ERROR).is_some()).count();
                 suggested += diagnoses.iter().filter(|x| !x.suggestions.is_empty()).count();
                 if *left_out > 0 {
                     eprintln!("fdavar: warning: {}: {description}", d.bag.display());
@@ -161,12 +162,10 @@ fn table(done: &[Diagnosed]) -> Table {
             Ok((diagnoses, left_out, _)) => {
                 let note = if *left_out > 0 { format!("{left_out} samples left out") } else { String::new() };
                 for x in diagnoses {
-                    let fails = if x.fit.fit_error > FAILING_FIT_ERROR {
-                        " FAILS"
-                    } else if x.fit.misfit() > FAILING_FIT_ERROR {
-                        " FAILS in time"
-                    } else {
-                        ""
+                    let fails = match x.fit.failing(FAILING_FIT_ERROR) {
+                        Some(Failing::OverTau) => " FAILS",
+                        Some(Failing::InTime) => " FAILS in time",
+                        None => "",
                     };
                     let model: Vec<&str> = x.fit.terms.iter().map(|t| t.alias.as_deref().unwrap_or(&t.effect)).collect();
                     let (suggestion, after) = x

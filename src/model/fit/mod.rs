@@ -54,7 +54,7 @@ pub use periodogram::{line_reach, LineSupport, Periodogram, LINE_ALPHA, LINE_BIN
 pub use scoring::{failing_tau, fit_error, z_scores, FAILING_Z};
 pub use spans::{SpanCheck, DEFAULT_SPANS, MIN_SPAN_EDF, MIN_SPAN_SAMPLES};
 pub use types::{
-    AxisInput, Event, FitError, FitOptions, FitPoint, FittedModel, FittedTerm, ParamValue, Span,
+    misfit, AxisInput, Event, FitError, FitOptions, FitPoint, Failing, FittedModel, FittedTerm, ParamValue, Span,
 };
 
 use crate::allan::edf::white_fourth_cumulant;

@@ -279,13 +279,38 @@ impl FittedModel {
     /// fails when it is above 2, over τ or in time, and it is what the diagnosis's suggestions
     /// must lower ([`crate::model::diagnose()`]).
     pub fn misfit(&self) -> f64 {
-        self.span_fit_error.map_or(self.fit_error, |spans| self.fit_error.max(spans))
+        misfit(self.fit_error, self.span_fit_error)
+    }
+
+    /// How the model fails at `level` (the CLI's 2): over τ when fit_error is above it, else in
+    /// time when span_fit_error is; `None` when it does not fail.
+    pub fn failing(&self, level: f64) -> Option<Failing> {
+        if self.fit_error > level {
+            Some(Failing::OverTau)
+        } else {
+            self.span_fit_error.filter(|&s| s > level).map(|_| Failing::InTime)
+        }
     }
 
     /// The term of effect `id`.
     pub fn term(&self, id: &str) -> Option<&FittedTerm> {
         self.terms.iter().find(|t| t.effect == id)
     }
+}
+
+/// The larger of a model's fit_error and its span_fit_error (`None`: no span was checked): the
+/// misfit ([`FittedModel::misfit`], [`crate::model::diagnose::Suggestion::misfit_after`]).
+pub fn misfit(fit_error: f64, span_fit_error: Option<f64>) -> f64 {
+    span_fit_error.map_or(fit_error, |spans| fit_error.max(spans))
+}
+
+/// How a model fails ([`FittedModel::failing`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Failing {
+    /// The whole record's curve: fit_error above the level.
+    OverTau,
+    /// Only the spans of the record: span_fit_error above the level, fit_error not.
+    InTime,
 }
 
 /// A located change in time: an effect id and its parameters.

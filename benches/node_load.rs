@@ -19,7 +19,15 @@
 //! - the cost of the latest whole-run diagnosis of gyro_x (`diagnosis_ms`), which runs on a
 //!   thread of its own, one axis per publication.
 //!
-//! - the same CPU share per thread (/proc/PID/task/*/stat; threads that used none are left out).
+//! - the same CPU share per thread (/proc/PID/task/*/stat; threads that used none are left out),
+//!   with each thread's wake-ups per second (its `voluntary_ctxt_switches`);
+//! - after the node and the peers are gone, this host's price of a wake-up, measured by threads
+//!   that do nothing else: one sleeping a batch's length at a time (the node's receive thread
+//!   between batches), and one woken by a UDP datagram at RATE_HZ, where the scheduler places it
+//!   and on another CPU than the sender's (what RustDDS's thread is, per message); beside them,
+//!   the node's busy threads' CPU per wake-up. On this project's virtual machine a wake-up of an
+//!   idle CPU costs 17–35 µs, and the node's share at 2 kHz is nearly all wake-ups
+//!   (docs/ros.md, "Threads").
 //!
 //! PEERS (default `bare`; `bare,rclpy`, `rclpy`, or `none` for the node alone) are subscribers measured in the same
 //! minutes as the node, on the same messages, so that the node's share can be read against what
@@ -70,8 +78,17 @@ fn cpu_ticks(pid: u32) -> Option<u64> {
     stat_ticks(&format!("/proc/{pid}/stat")).map(|(_, t)| t)
 }
 
-/// Each thread of `pid`: (thread id, name, user + system ticks).
-fn thread_ticks(pid: u32) -> Vec<(String, String, u64)> {
+/// One thread of the node: its id, name, user + system ticks, and how often it went to sleep
+/// (`voluntary_ctxt_switches`: each such sleep ends in a wake-up, the host's dearest event).
+struct ThreadUse {
+    tid: String,
+    name: String,
+    ticks: u64,
+    sleeps: u64,
+}
+
+/// Each thread of `pid`.
+fn thread_use(pid: u32) -> Vec<ThreadUse> {
     let Ok(dir) = std::fs::read_dir(format!("/proc/{pid}/task")) else {
         return Vec::new();
     };
@@ -79,9 +96,101 @@ fn thread_ticks(pid: u32) -> Vec<(String, String, u64)> {
         .filter_map(|e| {
             let tid = e.file_name().to_string_lossy().into_owned();
             let (name, ticks) = stat_ticks(&format!("/proc/{pid}/task/{tid}/stat"))?;
-            Some((tid, name, ticks))
+            let status = std::fs::read_to_string(format!("/proc/{pid}/task/{tid}/status")).ok()?;
+            let sleeps = status
+                .lines()
+                .find_map(|l| l.strip_prefix("voluntary_ctxt_switches:"))?
+                .trim()
+                .parse()
+                .ok()?;
+            Some(ThreadUse { tid, name, ticks, sleeps })
         })
         .collect()
+}
+
+/// The calling thread's CPU time in seconds (`CLOCK_THREAD_CPUTIME_ID`).
+fn thread_cpu_s() -> f64 {
+    let mut t = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: clock_gettime writes only the timespec it is given.
+    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut t) };
+    t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9
+}
+
+/// Pins the calling thread to one CPU (`sched_setaffinity`); false if refused.
+fn pin_to_cpu(cpu: usize) -> bool {
+    // SAFETY: the set is zeroed and filled by the libc macros; sched_setaffinity(0, …) changes
+    // only the calling thread.
+    unsafe {
+        let mut set: libc::cpu_set_t = std::mem::zeroed();
+        libc::CPU_SET(cpu, &mut set);
+        libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set) == 0
+    }
+}
+
+/// µs of CPU per wake-up of a thread that sleeps `sleep` at a time, with a timer slack of 1 ns
+/// as the node's receive thread has between batches.
+fn timer_wake_price(sleep: Duration, seconds: f64) -> f64 {
+    std::thread::spawn(move || {
+        // SAFETY: PR_SET_TIMERSLACK changes only the calling thread's timer slack.
+        unsafe { libc::prctl(libc::PR_SET_TIMERSLACK, 1 as libc::c_ulong) };
+        let (cpu0, start) = (thread_cpu_s(), Instant::now());
+        let mut wakes = 0u64;
+        while start.elapsed().as_secs_f64() < seconds {
+            std::thread::sleep(sleep);
+            wakes += 1;
+        }
+        (thread_cpu_s() - cpu0) / wakes as f64 * 1e6
+    })
+    .join()
+    .expect("timer thread")
+}
+
+/// µs of CPU per wake-up of a thread blocked in `recv` on a UDP socket, woken by each of
+/// `rate_hz` datagrams of an IMU message's size sent by another thread, paced as the bench paces
+/// its IMU messages: what any subscriber, DDS or not, pays per message before it reads a byte.
+/// `cpus`: the (receiver, sender) CPUs, or None to let the scheduler place them.
+fn datagram_wake_price(rate_hz: f64, seconds: f64, cpus: Option<(usize, usize)>) -> f64 {
+    let receiver = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind a UDP socket");
+    let address = receiver.local_addr().expect("its address");
+    let received = std::thread::spawn(move || {
+        if let Some((cpu, _)) = cpus {
+            pin_to_cpu(cpu);
+        }
+        let mut buffer = [0u8; 2048];
+        let mut cpu0 = None;
+        let mut wakes = 0u64;
+        loop {
+            match receiver.recv(&mut buffer) {
+                Ok(1) => break, // the sender's end mark
+                Ok(_) => {
+                    // Timed from the first datagram: the thread's start is not a wake-up.
+                    cpu0.get_or_insert_with(thread_cpu_s);
+                    wakes += 1;
+                }
+                Err(e) => panic!("recv: {e}"),
+            }
+        }
+        (thread_cpu_s() - cpu0.unwrap_or(0.0)) / wakes.saturating_sub(1).max(1) as f64 * 1e6
+    });
+    std::thread::spawn(move || {
+        if let Some((_, cpu)) = cpus {
+            pin_to_cpu(cpu);
+        }
+        let sender = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind a UDP socket");
+        let payload = [0x5au8; 400]; // about a sensor_msgs/Imu in one RTPS DATA datagram
+        let period = Duration::from_secs_f64(1.0 / rate_hz);
+        let start = Instant::now();
+        for k in 0..(seconds * rate_hz) as u64 {
+            if let Some(wait) = (start + period.mul_f64(k as f64)).checked_duration_since(Instant::now()) {
+                std::thread::sleep(wait);
+            }
+            sender.send_to(&payload, address).expect("send");
+        }
+        sender.send_to(&[1], address).expect("send the end mark");
+    })
+    .join()
+    .expect("sender thread");
+    received.join().expect("receiver thread")
 }
 
 /// The `rclpy` peer: counts `/imu` in its callback (sensor-data QoS, as a ROS 2 user's IMU
@@ -230,7 +339,7 @@ fn main() {
     let period = Duration::from_secs_f64(1.0 / rate_hz);
     let n = (seconds * rate_hz) as u64;
     let ticks0 = cpu_ticks(pid).expect("read /proc");
-    let threads0 = thread_ticks(pid);
+    let threads0 = thread_use(pid);
     for peer in &mut peers {
         peer.ticks0 = cpu_ticks(peer.child.id()).expect("read /proc");
     }
@@ -274,13 +383,16 @@ fn main() {
             )
         })
         .collect();
-    let mut per_thread: Vec<(String, f64)> = thread_ticks(pid)
+    // (name, share of a core in %, wake-ups per second)
+    let mut per_thread: Vec<(String, f64, f64)> = thread_use(pid)
         .into_iter()
-        .map(|(tid, name, ticks)| {
-            let before = threads0.iter().find(|t| t.0 == tid).map_or(0, |t| t.2);
-            (name, (ticks - before) as f64 / 100.0 / wall * 100.0)
+        .map(|t| {
+            let before = threads0.iter().find(|b| b.tid == t.tid);
+            let share = (t.ticks - before.map_or(0, |b| b.ticks)) as f64 / 100.0 / wall * 100.0;
+            let wakes = (t.sleeps - before.map_or(0, |b| b.sleeps)) as f64 / wall;
+            (t.name, share, wakes)
         })
-        .filter(|(_, share)| *share > 0.0)
+        .filter(|(_, share, _)| *share > 0.0)
         .collect();
     per_thread.sort_by(|a, b| b.1.total_cmp(&a.1));
     // The latest /diagnostics after the node has published at least once more.
@@ -317,10 +429,33 @@ fn main() {
     );
     let threads: Vec<String> = per_thread
         .iter()
-        .map(|(name, share)| format!("{name} {share:.2} %"))
+        .map(|(name, share, wakes)| format!("{name} {share:.2} % ({wakes:.0} wake-ups/s)"))
         .collect();
     println!("  per thread: {} ({binary})", threads.join(", "));
     for line in peer_lines {
         println!("{line}");
     }
+    // What the host charges for the node's kinds of wake-up, measured in the same minutes by
+    // threads that do nothing else (the node and the peers gone). On a virtual machine a wake-up
+    // of an idle virtual CPU costs several times a bare-metal one, and the node's share is mostly
+    // its wake-ups' price (docs/ros.md, "Threads").
+    let timer_us = timer_wake_price(Duration::from_secs_f64(batch_ms.max(0.1) * 1e-3), 10.0);
+    let same_us = datagram_wake_price(rate_hz, 10.0, None);
+    let cross = std::thread::available_parallelism().map_or(1, |n| n.get()) >= 2;
+    let cross_us = if cross { datagram_wake_price(rate_hz, 10.0, Some((1, 0))) } else { f64::NAN };
+    println!(
+        "  this host's price of a wake-up, the same minutes (threads that do nothing else, 10 s \
+         each): {timer_us:.1} µs of CPU after a {:.1} ms sleep; {same_us:.1} µs per datagram at \
+         {rate_hz} Hz where the scheduler places the receiver, {cross_us:.1} µs on another CPU \
+         than the sender's",
+        batch_ms.max(0.1),
+    );
+    // Threads woken often: their CPU per wake-up, to hold against the prices above (the rest
+    // of a wake-up's cost is the thread's own work on the messages it found).
+    let per_wake: Vec<String> = per_thread
+        .iter()
+        .filter(|(_, _, wakes)| *wakes >= 100.0)
+        .map(|(name, share, wakes)| format!("{name} {:.1} µs", share * 1e4 / wakes))
+        .collect();
+    println!("    the node's CPU per wake-up: {}", per_wake.join(", "));
 }

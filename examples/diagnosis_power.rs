@@ -2,12 +2,13 @@
 //! suggestion, and how often a hidden effect of a given strength is named.
 //!
 //! ```text
-//! cargo run --release --no-default-features --example diagnosis_power -- null RECORDINGS [SEED]
+//! cargo run --release --no-default-features --example diagnosis_power -- null RECORDINGS [SEED] [RATE:MINUTES,…]
 //! cargo run --release --no-default-features --example diagnosis_power -- power PER_POINT [SEED] [PNG|-] [FAMILY,…]
 //! ```
 //! `null` simulates clean six-axis recordings over 100–400 Hz, 20 min–2 h and the N/B/K mixes of
 //! `tests/power_common` and prints every candidate the diagnosis weighed (CSV on stdout; the clean
-//! axes that got a suggestion on stderr). `power` hides each effect at a ladder of strengths in
+//! axes that got a suggestion on stderr); a list of `RATE:MINUTES` pairs (e.g. `1000:10,2000:5`)
+//! replaces that grid, to check rates and lengths beyond it. `power` hides each effect at a ladder of strengths in
 //! PER_POINT recordings per point (100/200/400 Hz, 20 and 60 min, every mix) and prints a markdown
 //! table; with PNG it also draws the curves; with a list of families (effect ids), only those.
 //! `visible` runs each family (or those listed) at its stated visibility only and also counts the
@@ -74,9 +75,19 @@ fn ladder(scale: Scale) -> &'static [f64] {
     }
 }
 
-fn null(recordings: usize, seed: u64) {
+/// `RATE:MINUTES,…` as a grid of (Hz, minutes).
+fn parse_grid(list: &str) -> Vec<(f64, f64)> {
+    list.split(',')
+        .map(|pair| {
+            let parsed = pair.split_once(':').and_then(|(r, m)| Some((r.parse().ok()?, m.parse().ok()?)));
+            parsed.unwrap_or_else(|| panic!("{pair:?} is not RATE:MINUTES (e.g. 1000:10)"))
+        })
+        .collect()
+}
+
+fn null(recordings: usize, seed: u64, grid: &[(f64, f64)]) {
     let nbk = ModelSpec::parse_in("N,B,K", REGISTRY).unwrap();
-    let set = settings(recordings, NULL_GRID, seed);
+    let set = settings(recordings, grid, seed);
     println!("rate,minutes,mix,seed,axis,effect,statistic,threshold,p,significant");
     let rows = par_map(&set, 2, |s| {
         let rec = record(&spec_yaml(s, &Axis::ALL, &[], &[]));
@@ -300,7 +311,7 @@ fn main() {
     let count = args.get(2).and_then(|a| a.parse().ok()).unwrap_or(16);
     let seed = args.get(3).and_then(|a| a.parse().ok()).unwrap_or(1000);
     match args.get(1).map(String::as_str) {
-        Some("null") => null(count, seed),
+        Some("null") => null(count, seed, &args.get(4).map_or(NULL_GRID.to_vec(), |g| parse_grid(g))),
         Some("power") => power(
             count,
             seed,

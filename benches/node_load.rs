@@ -23,8 +23,8 @@
 //!   with each thread's wake-ups per second (its `voluntary_ctxt_switches`);
 //! - after the node and the peers are gone, this host's price of a wake-up, measured by threads
 //!   that do nothing else: one sleeping a batch's length at a time (the node's receive thread
-//!   between batches), and one woken by a UDP datagram at RATE_HZ, where the scheduler places it
-//!   and on another CPU than the sender's (what RustDDS's thread is, per message); beside them,
+//!   between batches), and one woken by a UDP datagram at RATE_HZ, on the sender's CPU and on
+//!   another (what RustDDS's thread is, per message); beside them,
 //!   the node's busy threads' CPU per wake-up. On this project's virtual machine a wake-up of an
 //!   idle CPU costs 17–35 µs, and the node's share at 2 kHz is nearly all wake-ups
 //!   (docs/ros.md, "Threads").
@@ -148,14 +148,12 @@ fn timer_wake_price(sleep: Duration, seconds: f64) -> f64 {
 /// µs of CPU per wake-up of a thread blocked in `recv` on a UDP socket, woken by each of
 /// `rate_hz` datagrams of an IMU message's size sent by another thread, paced as the bench paces
 /// its IMU messages: what any subscriber, DDS or not, pays per message before it reads a byte.
-/// `cpus`: the (receiver, sender) CPUs, or None to let the scheduler place them.
-fn datagram_wake_price(rate_hz: f64, seconds: f64, cpus: Option<(usize, usize)>) -> f64 {
+/// The receiver and the sender are pinned to `cpus` (receiver, sender).
+fn datagram_wake_price(rate_hz: f64, seconds: f64, cpus: (usize, usize)) -> f64 {
     let receiver = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind a UDP socket");
     let address = receiver.local_addr().expect("its address");
     let received = std::thread::spawn(move || {
-        if let Some((cpu, _)) = cpus {
-            pin_to_cpu(cpu);
-        }
+        pin_to_cpu(cpus.0);
         let mut buffer = [0u8; 2048];
         let mut cpu0 = None;
         let mut wakes = 0u64;
@@ -173,9 +171,7 @@ fn datagram_wake_price(rate_hz: f64, seconds: f64, cpus: Option<(usize, usize)>)
         (thread_cpu_s() - cpu0.unwrap_or(0.0)) / wakes.saturating_sub(1).max(1) as f64 * 1e6
     });
     std::thread::spawn(move || {
-        if let Some((_, cpu)) = cpus {
-            pin_to_cpu(cpu);
-        }
+        pin_to_cpu(cpus.1);
         let sender = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind a UDP socket");
         let payload = [0x5au8; 400]; // about a sensor_msgs/Imu in one RTPS DATA datagram
         let period = Duration::from_secs_f64(1.0 / rate_hz);
@@ -440,14 +436,13 @@ fn main() {
     // of an idle virtual CPU costs several times a bare-metal one, and the node's share is mostly
     // its wake-ups' price (docs/ros.md, "Threads").
     let timer_us = timer_wake_price(Duration::from_secs_f64(batch_ms.max(0.1) * 1e-3), 10.0);
-    let same_us = datagram_wake_price(rate_hz, 10.0, None);
+    let same_us = datagram_wake_price(rate_hz, 10.0, (0, 0));
     let cross = std::thread::available_parallelism().map_or(1, |n| n.get()) >= 2;
-    let cross_us = if cross { datagram_wake_price(rate_hz, 10.0, Some((1, 0))) } else { f64::NAN };
+    let cross_us = if cross { datagram_wake_price(rate_hz, 10.0, (1, 0)) } else { f64::NAN };
     println!(
         "  this host's price of a wake-up, the same minutes (threads that do nothing else, 10 s \
          each): {timer_us:.1} µs of CPU after a {:.1} ms sleep; {same_us:.1} µs per datagram at \
-         {rate_hz} Hz where the scheduler places the receiver, {cross_us:.1} µs on another CPU \
-         than the sender's",
+         {rate_hz} Hz on the sender's CPU, {cross_us:.1} µs on another CPU",
         batch_ms.max(0.1),
     );
     // Threads woken often: their CPU per wake-up, to hold against the prices above (the rest

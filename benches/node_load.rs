@@ -26,7 +26,7 @@
 //!   between batches), and one woken by a UDP datagram at RATE_HZ, on the sender's CPU and on
 //!   another (what RustDDS's thread is, per message); beside them,
 //!   the node's busy threads' CPU per wake-up. On this project's virtual machine a wake-up of an
-//!   idle CPU costs 17–35 µs, and the node's share at 2 kHz is nearly all wake-ups
+//!   idle CPU costs 15–37 µs, and the node's share at 2 kHz is nearly all wake-ups
 //!   (docs/ros.md, "Threads").
 //!
 //! PEERS (default `bare`; `bare,rclpy`, `rclpy`, or `none` for the node alone) are subscribers measured in the same
@@ -148,12 +148,12 @@ fn timer_wake_price(sleep: Duration, seconds: f64) -> f64 {
 /// µs of CPU per wake-up of a thread blocked in `recv` on a UDP socket, woken by each of
 /// `rate_hz` datagrams of an IMU message's size sent by another thread, paced as the bench paces
 /// its IMU messages: what any subscriber, DDS or not, pays per message before it reads a byte.
-/// The receiver and the sender are pinned to `cpus` (receiver, sender).
+/// The receiver and the sender are pinned to `cpus` (receiver, sender); NaN if the host refuses.
 fn datagram_wake_price(rate_hz: f64, seconds: f64, cpus: (usize, usize)) -> f64 {
     let receiver = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind a UDP socket");
     let address = receiver.local_addr().expect("its address");
     let received = std::thread::spawn(move || {
-        pin_to_cpu(cpus.0);
+        let pinned = pin_to_cpu(cpus.0);
         let mut buffer = [0u8; 2048];
         let mut cpu0 = None;
         let mut wakes = 0u64;
@@ -168,10 +168,11 @@ fn datagram_wake_price(rate_hz: f64, seconds: f64, cpus: (usize, usize)) -> f64 
                 Err(e) => panic!("recv: {e}"),
             }
         }
-        (thread_cpu_s() - cpu0.unwrap_or(0.0)) / wakes.saturating_sub(1).max(1) as f64 * 1e6
+        let price = (thread_cpu_s() - cpu0.unwrap_or(0.0)) / wakes.saturating_sub(1).max(1) as f64 * 1e6;
+        if pinned { price } else { f64::NAN }
     });
-    std::thread::spawn(move || {
-        pin_to_cpu(cpus.1);
+    let sender_pinned = std::thread::spawn(move || {
+        let pinned = pin_to_cpu(cpus.1);
         let sender = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind a UDP socket");
         let payload = [0x5au8; 400]; // about a sensor_msgs/Imu in one RTPS DATA datagram
         let period = Duration::from_secs_f64(1.0 / rate_hz);
@@ -183,10 +184,12 @@ fn datagram_wake_price(rate_hz: f64, seconds: f64, cpus: (usize, usize)) -> f64 
             sender.send_to(&payload, address).expect("send");
         }
         sender.send_to(&[1], address).expect("send the end mark");
+        pinned
     })
     .join()
     .expect("sender thread");
-    received.join().expect("receiver thread")
+    let price = received.join().expect("receiver thread");
+    if sender_pinned { price } else { f64::NAN }
 }
 
 /// The `rclpy` peer: counts `/imu` in its callback (sensor-data QoS, as a ROS 2 user's IMU
@@ -437,8 +440,7 @@ fn main() {
     // its wake-ups' price (docs/ros.md, "Threads").
     let timer_us = timer_wake_price(Duration::from_secs_f64(batch_ms.max(0.1) * 1e-3), 10.0);
     let same_us = datagram_wake_price(rate_hz, 10.0, (0, 0));
-    let cross = std::thread::available_parallelism().map_or(1, |n| n.get()) >= 2;
-    let cross_us = if cross { datagram_wake_price(rate_hz, 10.0, (1, 0)) } else { f64::NAN };
+    let cross_us = datagram_wake_price(rate_hz, 10.0, (1, 0)); // NaN on a single CPU
     println!(
         "  this host's price of a wake-up, the same minutes (threads that do nothing else, 10 s \
          each): {timer_us:.1} µs of CPU after a {:.1} ms sleep; {same_us:.1} µs per datagram at \

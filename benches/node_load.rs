@@ -96,13 +96,7 @@ fn thread_use(pid: u32) -> Vec<ThreadUse> {
         .filter_map(|e| {
             let tid = e.file_name().to_string_lossy().into_owned();
             let (name, ticks) = stat_ticks(&format!("/proc/{pid}/task/{tid}/stat"))?;
-            let status = std::fs::read_to_string(format!("/proc/{pid}/task/{tid}/status")).ok()?;
-            let sleeps = status
-                .lines()
-                .find_map(|l| l.strip_prefix("voluntary_ctxt_switches:"))?
-                .trim()
-                .parse()
-                .ok()?;
+            let sleeps = common::voluntary_switches(pid, &tid)?;
             Some(ThreadUse { tid, name, ticks, sleeps })
         })
         .collect()

@@ -1743,14 +1743,9 @@ fn dropped_input_turns_the_status_warn_or_error_and_the_node_keeps_serving() {
     assert!(offset_samples < zero_samples && zero_samples < clean_samples);
 }
 
-/// The receive thread's voluntary context switches (each sleep or park it woke from).
+/// The receive thread's (the node's main thread's) voluntary context switches.
 fn voluntary_switches(pid: u32) -> u64 {
-    let status = std::fs::read_to_string(format!("/proc/{pid}/task/{pid}/status")).expect("/proc");
-    status
-        .lines()
-        .find_map(|l| l.strip_prefix("voluntary_ctxt_switches:"))
-        .and_then(|v| v.trim().parse().ok())
-        .expect("voluntary_ctxt_switches")
+    common::voluntary_switches(pid, &pid.to_string()).expect("voluntary_ctxt_switches of the node")
 }
 
 /// `receive_batch_ms` (default 0.8): at 2 kHz the receive thread (the node's main thread) takes

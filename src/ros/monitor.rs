@@ -8,6 +8,7 @@
 //! Samples reach the F-DAVAR engine through [`RowEngine`]; the engine keeps the latest row of each
 //! axis, and the monitor publishes it with the counters.
 
+use crate::model::fit::Failing;
 use crate::msgs::builtin_interfaces::Time;
 use crate::msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue, Level};
 use crate::msgs::fdavar_msgs::AxisState;
@@ -843,7 +844,9 @@ impl Monitor {
                 let suggestions: Vec<&str> =
                     s.suggestions.iter().map(|x| x.effect.as_str()).collect();
                 values.push(KeyValue::new("suggestions", suggestions.join(",")));
-                if s.fit_error > self.settings.fit_error_warn {
+                // NaN (not diagnosed yet, or no span checked) fails nothing.
+                let failing = Failing::at(self.settings.fit_error_warn, s.fit_error, Some(s.span_fit_error));
+                if failing == Some(Failing::OverTau) {
                     (
                         Level::Warn,
                         format!(
@@ -852,7 +855,7 @@ impl Monitor {
                             suggestions.join(", ")
                         ),
                     )
-                } else if s.span_fit_error > self.settings.fit_error_warn {
+                } else if failing == Some(Failing::InTime) {
                     (
                         Level::Warn,
                         format!(

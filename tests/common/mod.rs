@@ -54,3 +54,11 @@ pub fn param_as_message(p: &serde_json::Value) -> serde_json::Value {
 pub fn shaded(svg: &str) -> usize {
     svg.split("<rect").skip(1).filter(|r| r.split('>').next().unwrap_or("").contains("0.16")).count()
 }
+
+/// Thread `tid`'s voluntary context switches in process `pid` (`voluntary_ctxt_switches` of
+/// /proc/PID/task/TID/status): each sleep or park it woke from. None when the thread is gone.
+#[allow(dead_code)] // Read by tests/ros_interop.rs and benches/node_load.rs only.
+pub fn voluntary_switches(pid: u32, tid: &str) -> Option<u64> {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/task/{tid}/status")).ok()?;
+    status.lines().find_map(|l| l.strip_prefix("voluntary_ctxt_switches:"))?.trim().parse().ok()
+}

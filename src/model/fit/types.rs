@@ -285,11 +285,7 @@ impl FittedModel {
     /// How the model fails at `level` (the CLI's 2): over τ when fit_error is above it, else in
     /// time when span_fit_error is; `None` when it does not fail.
     pub fn failing(&self, level: f64) -> Option<Failing> {
-        if self.fit_error > level {
-            Some(Failing::OverTau)
-        } else {
-            self.span_fit_error.filter(|&s| s > level).map(|_| Failing::InTime)
-        }
+        Failing::at(level, self.fit_error, self.span_fit_error)
     }
 
     /// The term of effect `id`.
@@ -311,6 +307,20 @@ pub enum Failing {
     OverTau,
     /// Only the spans of the record: span_fit_error above the level, fit_error not.
     InTime,
+}
+
+impl Failing {
+    /// How a model of `fit_error` and `span_fit_error` fails at `level`: over τ when fit_error is
+    /// above it, else in time when span_fit_error is; `None` when it does not fail (a NaN, a
+    /// number not yet known, fails nothing). The CLI's warning, the fleet table and the node's
+    /// `/diagnostics` all classify by it.
+    pub fn at(level: f64, fit_error: f64, span_fit_error: Option<f64>) -> Option<Failing> {
+        if fit_error > level {
+            Some(Failing::OverTau)
+        } else {
+            span_fit_error.filter(|&s| s > level).map(|_| Failing::InTime)
+        }
+    }
 }
 
 /// A located change in time: an effect id and its parameters.
